@@ -1,0 +1,170 @@
+"""Case plumbing: typed parameters from ``--set key=value``, and the script entry point.
+
+A case script in ``cases/`` defines a frozen dataclass ``Params`` and a function
+``build(params) -> Job``; ``main()`` at its bottom makes it runnable as a script, and
+``forming run NAME`` finds it by name.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import importlib.util
+import logging
+import types
+import typing
+from pathlib import Path
+
+from forming.errors import InputError
+
+log = logging.getLogger(__name__)
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def _convert(name: str, text: str, hint) -> object:
+    origin = typing.get_origin(hint)
+    if origin is typing.Literal:
+        choices = typing.get_args(hint)
+        if text not in choices:
+            raise InputError(name, f"must be one of {list(choices)}, got {text!r}")
+        return text
+    if origin in (types.UnionType, typing.Union):
+        args = [a for a in typing.get_args(hint) if a is not type(None)]
+        if text.lower() in ("none", "null") and len(args) < len(typing.get_args(hint)):
+            return None
+        return _convert(name, text, args[0])
+    if origin is tuple:
+        inner = typing.get_args(hint)[0]
+        return tuple(_convert(name, t.strip(), inner) for t in text.split(",") if t.strip())
+    if hint is bool:
+        low = text.lower()
+        if low in ("1", "true", "yes", "on"):
+            return True
+        if low in ("0", "false", "no", "off"):
+            return False
+        raise InputError(name, f"must be true or false, got {text!r}")
+    if hint in (int, float):
+        try:
+            return hint(text)
+        except ValueError as exc:
+            raise InputError(name, f"must be {hint.__name__}, got {text!r}") from exc
+    return text
+
+
+def parse_params(params_cls: type, assignments: list[str]) -> object:
+    """Build ``params_cls`` from its defaults and ``key=value`` strings.
+
+    Raises:
+        InputError: Malformed assignment, unknown key (listing the known ones) or a value
+            of the wrong type.
+    """
+    hints = typing.get_type_hints(params_cls)
+    known = {f.name for f in dataclasses.fields(params_cls)}
+    values: dict[str, object] = {}
+    for item in assignments:
+        if "=" not in item:
+            raise InputError("--set", f"expected key=value, got {item!r}")
+        key, text = item.split("=", 1)
+        key = key.strip()
+        if key not in known:
+            raise InputError(f"--set {key}", f"unknown parameter; known: {sorted(known)}")
+        values[key] = _convert(f"--set {key}", text.strip(), hints[key])
+    return params_cls(**values)
+
+
+def find_case(name: str) -> Path:
+    """Path of ``cases/<name>.py`` (repository checkout or current directory)."""
+    for root in (Path.cwd(), REPO):
+        p = root / "cases" / f"{name}.py"
+        if p.is_file():
+            return p
+    known = sorted(p.stem for p in (REPO / "cases").glob("*.py") if not p.stem.startswith("_"))
+    raise InputError("case", f"unknown case {name!r}; known: {known}")
+
+
+def load_case(name: str) -> types.ModuleType:
+    """Import a case script as a module."""
+    path = find_case(name)
+    spec = importlib.util.spec_from_file_location(f"forming_case_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    for attr in ("Params", "build"):
+        if not hasattr(module, attr):
+            raise InputError("case", f"{path} defines no {attr}")
+    return module
+
+
+def run_case(name: str, out: Path, assignments: list[str], build=None, params_cls=None) -> dict:
+    """Run case ``name`` with ``--set`` assignments; write the output contract into ``out``."""
+    from forming.run import simulate
+
+    if build is None:
+        module = load_case(name)
+        build, params_cls = module.build, module.Params
+    params = parse_params(params_cls, assignments)
+    job = build(params)
+    return simulate(job, Path(out), name, dataclasses.asdict(params))
+
+
+def _apply_petsc_args(extra: list[str]) -> None:
+    """Pass ``-option value`` pairs left on the command line to PETSc."""
+    from forming import compat  # noqa: F401
+    from petsc4py import PETSc
+
+    opts = PETSc.Options()
+    i = 0
+    while i < len(extra):
+        key = extra[i]
+        if not key.startswith("-"):
+            raise InputError("command line", f"unexpected argument {key!r}")
+        if i + 1 < len(extra) and not extra[i + 1].startswith("-"):
+            opts[key.lstrip("-")] = extra[i + 1]
+            i += 2
+        else:
+            opts[key.lstrip("-")] = None
+            i += 1
+
+
+def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--out`` and ``--set`` options of a case run."""
+    parser.add_argument("--out", type=Path, default=None,
+                        help="output folder (default results/<case>)")
+    parser.add_argument("--set", dest="assignments", action="append", default=[],
+                        metavar="KEY=VALUE", help="override a case parameter (repeatable)")
+
+
+def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
+            params_cls=None) -> int:
+    """Run a case from parsed arguments; report where the outputs are. Returns exit code."""
+    from mpi4py import MPI
+
+    from forming.log import setup
+
+    setup()
+    comm = MPI.COMM_WORLD
+    try:
+        _apply_petsc_args(extra)
+        out = args.out or Path("results") / name
+        summary = run_case(name, out, args.assignments, build, params_cls)
+    except InputError as exc:
+        if comm.rank == 0:
+            log.error("%s", exc)
+        return 2
+    if comm.rank == 0:
+        print(f"{name}: {summary['status']}"
+              + (f" ({summary['reason']})" if summary["reason"] else ""))
+        for k, v in summary["metrics"].items():
+            print(f"  {k} = {v}")
+        print(f"  wall {summary['timing']['wall_s']:.2f} s, {summary['timing']['steps']} steps, "
+              f"{summary['timing']['newton_iterations']} Newton iterations")
+        print(f"outputs in {Path(out).resolve()}")
+    return 0 if summary["status"] == "completed" else 1
+
+
+def main(build, params_cls, name: str) -> None:
+    """Entry point at the bottom of a case script."""
+    parser = argparse.ArgumentParser(description=f"forming case {name}")
+    add_run_arguments(parser)
+    args, extra = parser.parse_known_args()
+    raise SystemExit(execute(name, args, extra, build, params_cls))

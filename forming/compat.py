@@ -1,0 +1,59 @@
+"""Everything that depends on how DOLFINx was installed or on its version.
+
+The PyPI stack ships PETSc in ``dolfinx_solver``, which must be imported before
+``dolfinx``; conda and Docker builds have no such module.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import sys
+
+try:  # PyPI wheels: load the PETSc that dolfinx was built against
+    import dolfinx_solver  # noqa: F401
+except ImportError:  # conda / Docker DOLFINx 0.11
+    pass
+
+import dolfinx  # noqa: E402
+import dolfinx.fem.petsc  # noqa: E402,F401
+import dolfinx.io  # noqa: E402
+from petsc4py import PETSc  # noqa: E402
+
+REQUIRED = (0, 11)
+_ver = tuple(int(x) for x in dolfinx.__version__.split(".")[:2])
+if _ver != REQUIRED:
+    raise ImportError(
+        f"forming needs DOLFINx {REQUIRED[0]}.{REQUIRED[1]}, found {dolfinx.__version__} "
+        f"at {dolfinx.__file__}; run scripts/dev.sh to create the pinned environment"
+    )
+
+
+def model_to_mesh(model, comm, rank: int = 0, gdim: int = 3):
+    """Convert a gmsh model into a DOLFINx mesh whose interior facets are ghosted.
+
+    Returns the ``MeshData`` of :func:`dolfinx.io.gmsh.model_to_mesh` (mesh, cell_tags,
+    facet_tags, physical_groups, ...).
+    """
+    partitioner = dolfinx.mesh.create_cell_partitioner(dolfinx.mesh.GhostMode.shared_facet, 2)
+    return dolfinx.io.gmsh.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
+
+
+def vtx_writer(comm, path, functions):
+    """ParaView-readable ADIOS2 (BP4) writer for the given functions."""
+    return dolfinx.io.VTXWriter(comm, str(path), functions, engine="BP4")
+
+
+def versions() -> dict[str, str]:
+    """Versions of the software a run depends on."""
+    out = {"python": sys.version.split()[0], "dolfinx": dolfinx.__version__}
+    out["petsc"] = ".".join(str(v) for v in PETSc.Sys.getVersion())
+    for dist in ("fenics-ufl", "fenics-basix", "fenics-ffcx", "numba", "numpy", "mpi4py", "gmsh"):
+        try:
+            out[dist] = importlib.metadata.version(dist)
+        except importlib.metadata.PackageNotFoundError:
+            out[dist] = "not installed"
+    try:
+        out["forming"] = importlib.metadata.version("forming")
+    except importlib.metadata.PackageNotFoundError:
+        out["forming"] = "source tree"
+    return out

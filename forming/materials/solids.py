@@ -1,0 +1,245 @@
+"""Solid materials evaluated at quadrature points: elastic and crushable foam.
+
+Both work in the Lagrangian generalised-strain space (Hencky or Biot strain) with
+the elasticity of :mod:`forming.materials.elasticity`; see ``docs/theory.md``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Literal, NamedTuple, Protocol
+
+import numpy as np
+
+from forming.errors import InputError
+from forming.materials import kernels
+from forming.materials.curves import CompressionCurve, pchip_slopes
+from forming.materials.elasticity import Elasticity
+
+log = logging.getLogger(__name__)
+
+StrainMeasure = Literal["hencky", "biot", "biot-hencky"]
+_MEASURES = {
+    "hencky": kernels.MEASURE_HENCKY,
+    "biot": kernels.MEASURE_BIOT,
+    "biot-hencky": kernels.MEASURE_BIOT_HENCKY,
+}
+
+
+class KernelData(NamedTuple):
+    """Arrays handed to :func:`forming.materials.kernels.evaluate_points`."""
+
+    cel: np.ndarray
+    measure: int
+    plastic: bool
+    props: np.ndarray
+    xs: np.ndarray
+    ys: np.ndarray
+    ds: np.ndarray
+
+
+class PointMaterial(Protocol):
+    """A solid whose stress and tangent come from a quadrature-point kernel."""
+
+    @property
+    def plastic(self) -> bool:
+        """Whether the material carries plastic state (and runs a return mapping)."""
+
+    def kernel_data(self) -> KernelData:
+        """The arrays the point kernel needs."""
+
+
+class PointResult(NamedTuple):
+    """Stress, tangent and trial state at a set of points."""
+
+    S: np.ndarray  # (n, 6) second Piola-Kirchhoff stress, Mandel
+    D: np.ndarray | None  # (n, 36) dS/dE_GL, Mandel row-major
+    ep: np.ndarray | None  # (n, 6) plastic strain
+    evp: np.ndarray | None  # (n,) volumetric plastic strain
+    n_failed: int
+    worst_status: int
+
+
+def evaluate(
+    material: PointMaterial,
+    cmats: np.ndarray,
+    ep_n: np.ndarray | None = None,
+    evp_n: np.ndarray | None = None,
+    want_tangent: bool = True,
+    h: float = 1e-6,
+) -> PointResult:
+    """Evaluate a point material at right Cauchy-Green tensors ``cmats`` (n, 9)."""
+    k = material.kernel_data()
+    n = cmats.shape[0]
+    s = np.zeros((n, 6))
+    d = np.zeros((n, 36)) if want_tangent else np.zeros((0, 36))
+    if k.plastic:
+        ep_in = np.zeros((n, 6)) if ep_n is None else np.ascontiguousarray(ep_n)
+        evp_in = np.zeros(n) if evp_n is None else np.ascontiguousarray(evp_n)
+        ep_out, evp_out = ep_in.copy(), evp_in.copy()
+    else:
+        ep_in = ep_out = np.zeros((0, 6))
+        evp_in = evp_out = np.zeros(0)
+    nbad, worst = kernels.evaluate_points(
+        np.ascontiguousarray(cmats, dtype=float), ep_in, evp_in, k.cel, k.measure, k.plastic,
+        k.props, k.xs, k.ys, k.ds, s, d, ep_out, evp_out, want_tangent, h,
+    )
+    return PointResult(
+        s, d if want_tangent else None, ep_out if k.plastic else None,
+        evp_out if k.plastic else None, int(nbad), int(worst),
+    )
+
+
+def _measure(name: str) -> int:
+    if name not in _MEASURES:
+        raise InputError("material.strain_measure", f"must be one of {sorted(_MEASURES)}, got {name!r}")
+    return _MEASURES[name]
+
+
+@dataclass(frozen=True)
+class ElasticSolid:
+    """Hyperelastic solid, quadratic in the Hencky (or Biot) strain. Carries no state.
+
+    Attributes:
+        elasticity: Isotropic or transversely isotropic elasticity.
+        strain_measure: ``"hencky"`` (logarithmic), ``"biot"``, or ``"biot-hencky"``
+            (Biot in principal extension, Hencky in principal compression).
+    """
+
+    elasticity: Elasticity
+    strain_measure: StrainMeasure = "hencky"
+
+    def __post_init__(self) -> None:
+        _measure(self.strain_measure)
+
+    @property
+    def plastic(self) -> bool:
+        """An elastic solid has no plastic state."""
+        return False
+
+    @cached_property
+    def _data(self) -> KernelData:
+        empty = np.zeros(1)
+        return KernelData(
+            self.elasticity.stiffness(), _measure(self.strain_measure), False,
+            np.zeros(2), empty, empty, empty,
+        )
+
+    def kernel_data(self) -> KernelData:
+        """The arrays the point kernel needs."""
+        return self._data
+
+
+class HardeningTable(NamedTuple):
+    """Hardening law ``pc(evp)`` derived from a uniaxial curve."""
+
+    evp: np.ndarray  # volumetric plastic strain, compression positive
+    pc: np.ndarray  # hydrostatic compression yield stress [MPa]
+    slope: np.ndarray  # monotone-cubic slopes dpc/devp
+    sigma_c: np.ndarray  # uniaxial yield stress (true) at each evp
+    alpha: float
+    pt: float
+
+
+@dataclass(frozen=True)
+class CrushableFoam:
+    """Crushable foam with volumetric hardening (the Abaqus model), at finite strain.
+
+    Yield ``sqrt(q^2 + alpha^2 (p - p0)^2) - B <= 0`` with ``p0 = (pc - pt)/2``,
+    ``B = alpha (pc + pt)/2``, ``alpha = 3k / sqrt((3kt + k)(3 - k))``; flow potential
+    ``sqrt(q^2 + 9/2 p^2)`` (zero plastic Poisson ratio); ``pc`` hardens with the
+    volumetric plastic strain, from the nominal uniaxial compression ``curve``.
+
+    Attributes:
+        elasticity: Isotropic or transversely isotropic elasticity.
+        curve: Nominal uniaxial compression curve; its linear part must match the
+            elasticity's axial modulus.
+        k: Ratio of initial uniaxial to hydrostatic compression yield stress, in (0, 3).
+        kt: Ratio of hydrostatic tension to initial hydrostatic compression yield stress.
+        strain_measure: ``"hencky"`` (logarithmic), ``"biot"``, or ``"biot-hencky"``
+            (Biot in principal extension, Hencky in principal compression).
+    """
+
+    elasticity: Elasticity
+    curve: CompressionCurve
+    k: float = 1.1
+    kt: float = 0.1
+    strain_measure: StrainMeasure = "hencky"
+    def __post_init__(self) -> None:
+        _measure(self.strain_measure)
+        if not (0.0 < self.k < 3.0):
+            raise InputError("material.k", f"must lie in (0, 3), got {self.k!r}")
+        if not (0.0 <= self.kt):
+            raise InputError("material.kt", f"must be non-negative, got {self.kt!r}")
+        if abs(self.elasticity.lateral_poisson) > 1e-12:
+            log.warning(
+                "crushable foam: the curve conversion assumes no lateral strain in the "
+                "uniaxial test; elastic lateral Poisson ratio %g makes it approximate",
+                self.elasticity.lateral_poisson,
+            )
+        _ = self.hardening  # validate the curve now, not at the first solve
+
+    @property
+    def plastic(self) -> bool:
+        """The foam carries plastic state."""
+        return True
+
+    @cached_property
+    def hardening(self) -> HardeningTable:
+        """Convert the nominal curve to ``pc(evp)`` (see ``docs/theory.md``)."""
+        m = _measure(self.strain_measure)
+        e = np.asarray(self.curve.strain, dtype=float)
+        s = np.asarray(self.curve.stress, dtype=float)
+        lam = 1.0 - e
+        c = lam**2
+        e_tot = np.array([kernels.strain_f(ci, m) for ci in c])  # negative
+        kappa = np.array([2 * ci * kernels.strain_theta(ci, ci, m) / li for ci, li in zip(c, lam)])
+        t = -s / kappa
+        e_el = t / self.elasticity.axial_modulus
+        evp = -(e_tot - e_el)
+        elastic = evp[1:] < 0.05 * np.abs(e_tot[1:])
+        if not elastic[0]:
+            raise InputError(
+                "curve",
+                f"point 1 (strain {e[1]:g}, stress {s[1]:g}) is not on the elastic line of "
+                f"axial modulus {self.elasticity.axial_modulus:g} MPa; the curve must start "
+                "with its linear region, matching the elasticity",
+            )
+        last_el = int(np.nonzero(elastic)[0].max()) + 1
+        if not np.all(~elastic[last_el:]):
+            raise InputError("curve", f"the curve returns to its elastic line after point {last_el}")
+        if np.any(evp[last_el:last_el + 1] > 0.2 * abs(e_tot[last_el])) and last_el > 1:
+            raise InputError("curve", "inconsistent linear region")
+        sig_c = np.concatenate([[s[last_el]], s[last_el + 1:]])
+        evp_t = np.concatenate([[0.0], evp[last_el + 1:]])
+        if np.any(np.diff(evp_t) <= 0):
+            i = int(np.nonzero(np.diff(evp_t) <= 0)[0][0]) + last_el + 1
+            raise InputError(
+                "curve",
+                f"softening after point {i} is steeper than the elastic unloading line "
+                "(plastic strain would decrease): snap-back cannot be represented",
+            )
+        sc0 = sig_c[0]
+        pc0 = sc0 / self.k
+        pt = self.kt * pc0
+        alpha = 3 * self.k / math.sqrt((3 * self.kt + self.k) * (3 - self.k))
+        pc = sig_c * (sig_c * (1 / alpha**2 + 1 / 9) + pt / 3) / (pt + sig_c / 3)
+        return HardeningTable(evp_t, pc, pchip_slopes(evp_t, pc), sig_c, alpha, pt)
+
+    @cached_property
+    def _data(self) -> KernelData:
+        h = self.hardening
+        return KernelData(
+            self.elasticity.stiffness(), _measure(self.strain_measure), True,
+            np.array([h.alpha, h.pt]), h.evp, h.pc, h.slope,
+        )
+
+    def kernel_data(self) -> KernelData:
+        """The arrays the point kernel needs."""
+        return self._data
+
+
+SolidMaterial = ElasticSolid | CrushableFoam

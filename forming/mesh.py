@@ -1,0 +1,149 @@
+"""Meshes built with gmsh, with named physical groups for every body and face."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from forming import compat
+from forming.errors import InputError
+
+
+@dataclass(frozen=True)
+class MeshData:
+    """A DOLFINx mesh with its tags and the names of its physical groups.
+
+    Attributes:
+        mesh: The DOLFINx mesh.
+        cell_tags: Volume physical groups.
+        facet_tags: Surface physical groups.
+        names: Physical group name -> (dimension, tag).
+    """
+
+    mesh: object
+    cell_tags: object
+    facet_tags: object
+    names: dict[str, tuple[int, int]]
+
+    def facets(self, name: str) -> np.ndarray:
+        """Local facet indices of the surface group ``name``."""
+        dim, tag = self._lookup(name, 2)
+        return self.facet_tags.find(tag)
+
+    def cells(self, name: str) -> np.ndarray:
+        """Local cell indices of the volume group ``name``."""
+        dim, tag = self._lookup(name, 3)
+        return self.cell_tags.find(tag)
+
+    def _lookup(self, name: str, dim: int) -> tuple[int, int]:
+        if name not in self.names or self.names[name][0] != dim:
+            known = sorted(n for n, (d, _t) in self.names.items() if d == dim)
+            raise InputError("region", f"no {dim}D physical group {name!r}; known: {known}")
+        return self.names[name]
+
+    @property
+    def min_cell_size(self) -> float:
+        """Smallest cell diameter over all ranks [mm]."""
+        msh = self.mesh
+        tdim = msh.topology.dim
+        n = msh.topology.index_map(tdim).size_local
+        h = msh.h(tdim, np.arange(n, dtype=np.int32))
+        local = float(h.min()) if n else np.inf
+        return msh.comm.allreduce(local, op=MPI.MIN)
+
+
+def _finish(gmsh, comm) -> MeshData:
+    data = compat.model_to_mesh(gmsh.model, comm, 0, gdim=3)
+    names = {name: (pg.dim, pg.tag) for name, pg in data.physical_groups.items()}
+    return MeshData(data.mesh, data.cell_tags, data.facet_tags, names)
+
+
+def box(
+    size: tuple[float, float, float],
+    cells: tuple[int, int, int],
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    name: str = "core",
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> MeshData:
+    """Structured hexahedral block with faces ``xmin, xmax, ymin, ymax, bottom, top``.
+
+    Args:
+        size: Edge lengths (x, y, z) [mm], all positive.
+        cells: Number of hexahedra along x, y, z, all >= 1.
+        origin: Corner with the smallest coordinates.
+        name: Name of the volume group.
+        comm: Communicator of the mesh.
+    """
+    if len(size) != 3 or any(not np.isfinite(s) or s <= 0 for s in size):
+        raise InputError("mesh.size", f"edge lengths must be three positive numbers, got {size}")
+    if len(cells) != 3 or any(int(n) != n or n < 1 for n in cells):
+        raise InputError("mesh.cells", f"cell counts must be three integers >= 1, got {cells}")
+    import gmsh
+
+    initialised = gmsh.isInitialized()
+    if not initialised:
+        gmsh.initialize(interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.model.add(f"box_{name}")
+    try:
+        if comm.rank == 0:
+            occ = gmsh.model.occ
+            vol = occ.addBox(*origin, *size)
+            occ.synchronize()
+            for curve in gmsh.model.getEntities(1):
+                lo = gmsh.model.getBoundingBox(*curve)
+                ext = np.abs(np.array(lo[3:]) - np.array(lo[:3]))
+                axis = int(np.argmax(ext))
+                gmsh.model.mesh.setTransfiniteCurve(curve[1], int(cells[axis]) + 1)
+            for surf in gmsh.model.getEntities(2):
+                gmsh.model.mesh.setTransfiniteSurface(surf[1])
+                gmsh.model.mesh.setRecombine(2, surf[1])
+            gmsh.model.mesh.setTransfiniteVolume(vol)
+            gmsh.model.addPhysicalGroup(3, [vol], 1, name=name)
+            faces = {"xmin": (0, 0), "xmax": (0, 1), "ymin": (1, 0), "ymax": (1, 1),
+                     "bottom": (2, 0), "top": (2, 1)}
+            for tag, (fname, (axis, side)) in enumerate(faces.items(), start=1):
+                coord = origin[axis] + side * size[axis]
+                ents = []
+                for _d, s in gmsh.model.getEntities(2):
+                    c = gmsh.model.occ.getCenterOfMass(2, s)
+                    if abs(c[axis] - coord) < 1e-9 * max(size):
+                        ents.append(s)
+                gmsh.model.addPhysicalGroup(2, ents, tag, name=fname)
+            gmsh.model.mesh.generate(3)
+        return _finish(gmsh, comm)
+    finally:
+        gmsh.model.remove()
+        if not initialised:
+            gmsh.finalize()
+
+
+def from_file(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD) -> MeshData:
+    """Read a gmsh ``.msh`` file with physical groups.
+
+    Raises:
+        InputError: The file does not exist or is not a gmsh mesh.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError("mesh.path", f"file not found: {p}")
+    import gmsh
+
+    initialised = gmsh.isInitialized()
+    if not initialised:
+        gmsh.initialize(interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    try:
+        if comm.rank == 0:
+            try:
+                gmsh.open(str(p))
+            except Exception as exc:  # gmsh raises a bare Exception
+                raise InputError("mesh.path", f"gmsh cannot read {p}: {exc}") from exc
+        return _finish(gmsh, comm)
+    finally:
+        gmsh.clear()
+        if not initialised:
+            gmsh.finalize()

@@ -1,0 +1,267 @@
+"""The discrete model of a scene: spaces, quadrature-point material data and forms.
+
+Stress and tangent of a solid live in quadrature Functions that a numba kernel
+fills before each residual evaluation; history (plastic strain) lives in plain
+arrays and is allocated only for a plastic material. See ``docs/theory.md``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass
+
+import basix.ufl
+import numpy as np
+import ufl
+from mpi4py import MPI
+
+from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from dolfinx import fem  # noqa: I001
+from forming.materials.solids import PointMaterial, evaluate
+from forming.scene import Body, Displacement, Scene
+
+log = logging.getLogger(__name__)
+_R2 = math.sqrt(2.0)
+
+
+def mandel_to_tensor(s):
+    """UFL 3x3 symmetric tensor from a Mandel 6-vector."""
+    return ufl.as_matrix(
+        [
+            [s[0], s[5] / _R2, s[4] / _R2],
+            [s[5] / _R2, s[1], s[3] / _R2],
+            [s[4] / _R2, s[3] / _R2, s[2]],
+        ]
+    )
+
+
+def tensor_to_mandel(e):
+    """Mandel 6-vector of a symmetric UFL tensor."""
+    return ufl.as_vector([e[0, 0], e[1, 1], e[2, 2], _R2 * e[1, 2], _R2 * e[0, 2], _R2 * e[0, 1]])
+
+
+class KernelFailure(RuntimeError):
+    """The point kernel failed (inverted element or return mapping)."""
+
+
+@dataclass
+class PlasticState:
+    """Converged and trial history of a plastic body (arrays over quadrature points)."""
+
+    ep: np.ndarray
+    evp: np.ndarray
+    ep_trial: np.ndarray
+    evp_trial: np.ndarray
+
+    @classmethod
+    def zeros(cls, n: int) -> PlasticState:
+        """State of an undeformed body with ``n`` points."""
+        return cls(np.zeros((n, 6)), np.zeros(n), np.zeros((n, 6)), np.zeros(n))
+
+    def commit(self) -> None:
+        """Accept the trial state."""
+        self.ep[:] = self.ep_trial
+        self.evp[:] = self.evp_trial
+
+    def snapshot(self) -> tuple[np.ndarray, np.ndarray]:
+        """Copy of the converged state."""
+        return self.ep.copy(), self.evp.copy()
+
+    def restore(self, snap: tuple[np.ndarray, np.ndarray]) -> None:
+        """Return to a snapshot."""
+        self.ep[:], self.evp[:] = snap
+        self.ep_trial[:], self.evp_trial[:] = snap
+
+
+class SolidBody:
+    """A deformable body: displacement, quadrature material data and its forms.
+
+    Args:
+        body: The scene's body.
+        scene: The scene (mesh and quadrature degree).
+    """
+
+    def __init__(self, body: Body, scene: Scene):
+        self.body = body
+        msh = scene.mesh.mesh
+        self.mesh = msh
+        self.material: PointMaterial = body.material
+        q = scene.quadrature_degree or (2 if body.degree == 1 else 4)
+        self.quadrature_degree = q
+        self.V = fem.functionspace(msh, ("Lagrange", body.degree, (3,)))
+        self.u = fem.Function(self.V, name="u")
+        cell = msh.basix_cell()
+        self.QS = fem.functionspace(msh, basix.ufl.quadrature_element(cell, value_shape=(6,),
+                                                                      degree=q))
+        self.QD = fem.functionspace(msh, basix.ufl.quadrature_element(cell, value_shape=(6, 6),
+                                                                      degree=q))
+        self.S = fem.Function(self.QS, name="S")
+        self.D = fem.Function(self.QD, name="D")
+        tdim = msh.topology.dim
+        imap = msh.topology.index_map(tdim)
+        self.n_local_cells = imap.size_local
+        self.cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+        self._qdofs = self.QS.dofmap.list[self.cells].ravel()
+        self.n_points = self._qdofs.size
+        self.dx = ufl.Measure("dx", domain=msh, metadata={"quadrature_degree": q})
+        F = self.deformation_gradient()
+        self._C_expr = fem.Expression(F.T * F, self.QS.element.interpolation_points)
+        self.plastic: PlasticState | None = (
+            PlasticState.zeros(self.n_points) if self.material.plastic else None
+        )
+        self._evaluated_at: np.ndarray | None = None
+        self.kernel_seconds = 0.0
+        self._warm_kernel()
+
+    def _warm_kernel(self) -> None:
+        """Compile (or load from cache) the numba kernel before timing starts."""
+        c = np.eye(3).reshape(1, 9)
+        evaluate(self.material, c, want_tangent=True)
+
+    def deformation_gradient(self):
+        """UFL deformation gradient."""
+        return ufl.Identity(3) + ufl.grad(self.u)
+
+    def first_piola(self):
+        """UFL first Piola-Kirchhoff stress from the quadrature stress."""
+        return self.deformation_gradient() * mandel_to_tensor(self.S)
+
+    def residual(self, v) -> ufl.Form:
+        """Internal virtual work."""
+        return ufl.inner(self.first_piola(), ufl.grad(v)) * self.dx
+
+    def jacobian(self, du, v) -> ufl.Form:
+        """Consistent linearisation of :meth:`residual` using the quadrature tangent."""
+        F = self.deformation_gradient()
+        dF = ufl.grad(du)
+        dE = ufl.sym(F.T * dF)
+        dE_m = tensor_to_mandel(dE)
+        dS_m = ufl.as_vector([sum(self.D[i, j] * dE_m[j] for j in range(6)) for i in range(6)])
+        dP = dF * mandel_to_tensor(self.S) + F * mandel_to_tensor(dS_m)
+        return ufl.inner(dP, ufl.grad(v)) * self.dx
+
+    # -- quadrature-point update ---------------------------------------------------------
+    def update_material(self, want_tangent: bool = True) -> None:
+        """Evaluate stress (and tangent, trial state) at the current displacement.
+
+        Raises:
+            KernelFailure: An element is inverted or a return mapping failed.
+        """
+        key = self.u.x.array
+        if (self._evaluated_at is not None and want_tangent <= self._has_tangent
+                and np.array_equal(self._evaluated_at, key)):
+            return
+        t0 = time.perf_counter()
+        cm = self._C_expr.eval(self.mesh, self.cells).reshape(-1, 9)
+        ps = self.plastic
+        res = evaluate(
+            self.material, cm, None if ps is None else ps.ep, None if ps is None else ps.evp,
+            want_tangent=want_tangent,
+        )
+        self.kernel_seconds += time.perf_counter() - t0
+        if res.n_failed:
+            self._evaluated_at = None
+            what = "inverted elements" if res.worst_status == 1 else "return mapping failed"
+            raise KernelFailure(f"{res.n_failed} quadrature points: {what}")
+        self.S.x.array.reshape(-1, 6)[self._qdofs] = res.S
+        if want_tangent:
+            self.D.x.array.reshape(-1, 36)[self._qdofs] = res.D
+        if ps is not None:
+            ps.ep_trial[:] = res.ep
+            ps.evp_trial[:] = res.evp
+        self._evaluated_at = key.copy()
+        self._has_tangent = want_tangent
+
+    def invalidate(self) -> None:
+        """Forget the cached evaluation (after the state or ``u`` changed outside SNES)."""
+        self._evaluated_at = None
+
+    # -- outputs -------------------------------------------------------------------------
+    def cell_average(self, values: np.ndarray) -> np.ndarray:
+        """Average of point values over each local cell (owned cells only)."""
+        per_cell = values.reshape(len(self.cells), -1)[: self.n_local_cells]
+        return per_cell.mean(axis=1)
+
+    def volumetric_plastic_strain(self) -> np.ndarray | None:
+        """Converged volumetric plastic strain per quadrature point (None if elastic)."""
+        return None if self.plastic is None else self.plastic.evp
+
+
+class DirichletSet:
+    """Prescribed displacements of a scene with their reaction-force forms."""
+
+    def __init__(self, scene: Scene, bodies: dict[str, SolidBody]):
+        self.items: list[tuple[Displacement, int, fem.Constant]] = []
+        self.bcs: list[fem.DirichletBC] = []
+        self._reaction_forms: dict[str, fem.Form] = {}
+        for d in scene.displacements:
+            body = bodies[d.body]
+            facets = scene.mesh.facets(d.region)
+            for comp, _path in d.components():
+                Vc = body.V.sub(comp)
+                dofs = fem.locate_dofs_topological(Vc, 2, facets)
+                const = fem.Constant(body.mesh, 0.0)
+                self.bcs.append(fem.dirichletbc(const, dofs, Vc))
+                self.items.append((d, comp, const))
+                if d.reaction:
+                    w = fem.Function(body.V)
+                    Vsub, sub_map = body.V.sub(comp).collapse()
+                    dofs_sub = fem.locate_dofs_topological((body.V.sub(comp), Vsub), 2, facets)[0]
+                    w.x.array[dofs_sub] = 1.0
+                    key = f"{d.region}_{'xyz'[comp]}"
+                    self._reaction_forms[key] = fem.form(
+                        ufl.inner(body.first_piola(), ufl.grad(w)) * body.dx
+                    )
+
+    def set_load(self, t: float) -> None:
+        """Set the prescribed values at load parameter ``t``."""
+        for d, comp, const in self.items:
+            const.value = d.value(comp, t)
+
+    def reactions(self, comm: MPI.Comm) -> dict[str, float]:
+        """Reaction forces [N] on the recorded faces, summed over ranks."""
+        return {
+            k: comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
+            for k, f in self._reaction_forms.items()
+        }
+
+
+class Model:
+    """The discrete model of a scene (one body in this version)."""
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        self.comm = scene.mesh.mesh.comm
+        self.bodies = {b.name: SolidBody(b, scene) for b in scene.bodies}
+        self.dirichlet = DirichletSet(scene, self.bodies)
+
+    @property
+    def body(self) -> SolidBody:
+        """The single body."""
+        return next(iter(self.bodies.values()))
+
+    def set_load(self, t: float) -> None:
+        """Apply the loading programme at ``t``."""
+        self.dirichlet.set_load(t)
+
+    def commit(self) -> None:
+        """Accept the converged state as history."""
+        for b in self.bodies.values():
+            if b.plastic is not None:
+                b.plastic.commit()
+            b.invalidate()
+
+    def snapshot(self) -> list:
+        """Copy of the converged state (displacements and history)."""
+        return [(b.u.x.array.copy(), None if b.plastic is None else b.plastic.snapshot())
+                for b in self.bodies.values()]
+
+    def restore(self, snap: list) -> None:
+        """Return to a snapshot."""
+        for b, (u, hist) in zip(self.bodies.values(), snap):
+            b.u.x.array[:] = u
+            if hist is not None:
+                b.plastic.restore(hist)
+            b.invalidate()

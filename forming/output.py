@@ -1,0 +1,107 @@
+"""The output contract: summary.json, history.csv, ParaView fields and PNG plots.
+
+Only rank 0 writes files; every collective happens on all ranks before that.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from forming import compat
+from dolfinx import fem  # noqa: I001
+
+
+def _clean(value):
+    """JSON-safe copy (NaN/inf as strings, numpy scalars as Python numbers)."""
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_clean(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    return value
+
+
+class Recorder:
+    """Writes the run's history rows, fields and summary into ``out``.
+
+    Args:
+        out: Output folder (created).
+        comm: Communicator of the run.
+    """
+
+    def __init__(self, out: Path, comm: MPI.Comm):
+        self.out = Path(out)
+        self.comm = comm
+        self.rows: list[dict[str, float]] = []
+        if comm.rank == 0:
+            self.out.mkdir(parents=True, exist_ok=True)
+        comm.barrier()
+        self._writers: list = []
+        self._fields: list[fem.Function] = []
+
+    def add_fields(self, name: str, functions: list[fem.Function]) -> None:
+        """Write ``functions`` (one element type) to ``<name>.bp`` at every output."""
+        self._writers.append(compat.vtx_writer(self.comm, self.out / f"{name}.bp", functions))
+
+    def write_fields(self, t: float) -> None:
+        """Write all registered fields at load parameter ``t``."""
+        for w in self._writers:
+            w.write(t)
+
+    def record(self, row: dict[str, float]) -> None:
+        """Append a history row (same keys every step) and rewrite history.csv."""
+        self.rows.append(row)
+        if self.comm.rank == 0:
+            keys = list(self.rows[0].keys())
+            with (self.out / "history.csv").open("w", newline="") as fh:
+                w = csv.DictWriter(fh, fieldnames=keys)
+                w.writeheader()
+                w.writerows(self.rows)
+
+    def column(self, key: str) -> np.ndarray:
+        """One history column as an array."""
+        return np.array([r[key] for r in self.rows], dtype=float)
+
+    def write_summary(self, summary: dict) -> Path:
+        """Write ``summary.json`` (rank 0)."""
+        path = self.out / "summary.json"
+        if self.comm.rank == 0:
+            path.write_text(json.dumps(_clean(summary), indent=2) + "\n")
+        return path
+
+    def close(self) -> None:
+        """Close the field writers."""
+        for w in self._writers:
+            w.close()
+        self._writers = []
+
+
+def plot_curves(path: Path, series: list[tuple[np.ndarray, np.ndarray, str, str]],
+                xlabel: str, ylabel: str, title: str) -> Path:
+    """Line plot of ``(x, y, label, style)`` series to a PNG (call on rank 0)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
+    for x, y, label, style in series:
+        ax.plot(x, y, style, label=label, markersize=3)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path

@@ -1,0 +1,176 @@
+"""One step lifecycle for every solver: advance, predict, solve, accept or roll back, output."""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from forming import compat
+from dolfinx import fem  # noqa: I001
+from forming.log import Progress
+from forming.model import Model
+from forming.output import Recorder
+from forming.scene import Scene
+from forming.solver.implicit import ImplicitSolver, NewtonOptions
+from forming.solver.stepping import StepControl, Stepper, StepTooSmall
+
+log = logging.getLogger(__name__)
+
+Probe = Callable[[Model], dict[str, float]]
+Metrics = Callable[[Recorder, Model], dict]
+Plots = Callable[[Recorder, Path], list[Path]]
+
+
+@dataclass(frozen=True)
+class Job:
+    """A scene with how to step it, what to record and what to report.
+
+    Attributes:
+        scene: What is simulated.
+        steps: Load-step control.
+        newton: Newton and linear-solver settings.
+        probe: Extra history columns, evaluated after every converged step (collective).
+        metrics: The case's named figures, evaluated at the end (collective).
+        plots: PNG plots from the history (called on rank 0).
+        field_every: Write ParaView fields every this many converged steps (and last).
+    """
+
+    scene: Scene
+    steps: StepControl = field(default_factory=StepControl)
+    newton: NewtonOptions = field(default_factory=NewtonOptions)
+    probe: Probe | None = None
+    metrics: Metrics | None = None
+    plots: Plots | None = None
+    field_every: int = 1
+
+
+class _Fields:
+    """ParaView output: displacement and, for plastic bodies, the cell-mean plastic strain."""
+
+    def __init__(self, model: Model, recorder: Recorder):
+        self.model = model
+        body = model.body
+        recorder.add_fields("displacement", [body.u])
+        self.evp = None
+        if body.plastic is not None:
+            W = fem.functionspace(body.mesh, ("DG", 0))
+            self.evp = fem.Function(W, name="volumetric_plastic_strain")
+            recorder.add_fields("plastic_strain", [self.evp])
+
+    def update(self) -> None:
+        body = self.model.body
+        if self.evp is not None:
+            n = body.n_local_cells
+            self.evp.x.array[:n] = body.cell_average(body.plastic.evp)
+            self.evp.x.scatter_forward()
+
+
+def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
+    """Run a job through the load programme and write the output contract into ``out``.
+
+    Returns:
+        The summary (as written to ``summary.json``).
+    """
+    t_start = time.perf_counter()
+    comm = job.scene.mesh.mesh.comm
+    model = Model(job.scene)
+    solver = ImplicitSolver(model, job.newton)
+    jit_s = time.perf_counter() - t_start
+    recorder = Recorder(out, comm)
+    fields = _Fields(model, recorder)
+    stepper = Stepper(job.steps)
+    progress = Progress(case)
+    newton_total = 0
+    status, reason = "completed", ""
+
+    def record(res_its: int, res_norm: float, step_s: float) -> None:
+        row: dict[str, float] = {
+            "step": stepper.n_accepted, "t": stepper.t, "dt": stepper.last_dt,
+            "newton_iterations": res_its, "residual": res_norm, "step_wall_s": step_s,
+        }
+        row |= {f"reaction_{k}_N": v for k, v in model.dirichlet.reactions(comm).items()}
+        if job.probe is not None:
+            row |= job.probe(model)
+        recorder.record(row)
+
+    model.set_load(0.0)
+    record(0, 0.0, 0.0)
+    fields.update()
+    recorder.write_fields(0.0)
+    written_t = 0.0
+    while not stepper.done:
+        t_old = stepper.t
+        t_new = stepper.propose()
+        snap = model.snapshot()
+        model.set_load(t_new)
+        solver.predict(t_new, t_old, stepper.last_dt)
+        res = solver.solve()
+        newton_total += res.iterations
+        if res.converged:
+            model.commit()
+            solver.accept(snap[0][0])
+            stepper.accept(t_new, res.iterations)
+            record(res.iterations, res.residuals[-1] if res.residuals else 0.0, res.seconds)
+            log.info("step %d t=%.5f dt=%.3g newton=%d |r|=%.2e %.2fs", stepper.n_accepted,
+                     t_new, stepper.last_dt, res.iterations,
+                     res.residuals[-1] if res.residuals else 0.0, res.seconds)
+            progress.update(t_new, f"step {stepper.n_accepted} newton {res.iterations}")
+            if stepper.n_accepted % job.field_every == 0 or stepper.done:
+                fields.update()
+                recorder.write_fields(t_new)
+                written_t = t_new
+            continue
+        model.restore(snap)
+        log.warning("step to t=%.5f failed after %d iterations: %s; cutting back",
+                    t_new, res.iterations, res.reason)
+        try:
+            stepper.reject()
+        except StepTooSmall as exc:
+            status, reason = "failed", f"{exc}; last failure: {res.reason}"
+            log.error("run stopped: %s", reason)
+            break
+    progress.close()
+    if written_t != stepper.t:
+        fields.update()
+        recorder.write_fields(stepper.t)
+    recorder.close()
+
+    metrics = job.metrics(recorder, model) if job.metrics is not None else {}
+    wall_s = time.perf_counter() - t_start
+    body = model.body
+    summary = {
+        "case": case,
+        "status": status,
+        "reason": reason,
+        "load_parameter_reached": stepper.t,
+        "metrics": metrics,
+        "timing": {
+            "wall_s": wall_s, "jit_s": jit_s, "steps": stepper.n_accepted,
+            "rejected_steps": stepper.n_rejected, "newton_iterations": newton_total,
+            "kernel_s": comm.allreduce(body.kernel_seconds) / comm.size,
+        },
+        "ranks": comm.size,
+        "mesh": {"cells": comm.allreduce(body.n_local_cells),
+                 "dofs": body.V.dofmap.index_map.size_global * 3,
+                 "quadrature_points_per_cell": body.n_points // max(len(body.cells), 1)},
+        "versions": compat.versions(),
+        "parameters": parameters,
+        "outputs": ["summary.json", "history.csv", "displacement.bp"]
+        + (["plastic_strain.bp"] if body.plastic is not None else []),
+    }
+    if comm.rank == 0 and job.plots is not None and recorder.rows:
+        pngs = job.plots(recorder, recorder.out)
+        summary["outputs"] += [p.name for p in pngs]
+    recorder.write_summary(summary)
+    return summary
+
+
+def relative_rms(computed: np.ndarray, reference: np.ndarray) -> float:
+    """RMS of the difference over the RMS of the reference."""
+    ref = np.sqrt(np.mean(np.square(reference)))
+    return float(np.sqrt(np.mean(np.square(computed - reference))) / ref) if ref > 0 else np.inf

@@ -1,0 +1,159 @@
+"""The scene: what a case simulates, as frozen, validated dataclasses.
+
+A scene names bodies (a mesh region and a material), prescribed displacements as
+functions of the load parameter ``t`` in [0, 1], and nothing else unless the case
+asks for it: the model builds only the terms the scene calls for.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from forming.errors import InputError
+from forming.materials.solids import SolidMaterial
+from forming.mesh import MeshData
+
+
+@dataclass(frozen=True)
+class Linear:
+    """Load path ``value(t) = total * t``."""
+
+    total: float
+
+    def __post_init__(self) -> None:
+        if not math.isfinite(self.total):
+            raise InputError("path.total", f"must be finite, got {self.total!r}")
+
+    def __call__(self, t: float) -> float:
+        """Value at load parameter ``t``."""
+        return self.total * t
+
+
+@dataclass(frozen=True)
+class Table:
+    """Piecewise-linear load path through ``(t, value)`` points, ``t`` from 0 to 1."""
+
+    t: tuple[float, ...]
+    values: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.t, dtype=float)
+        if t.size < 2 or t.size != len(self.values):
+            raise InputError("path.t", "needs at least two points and one value per point")
+        if t[0] != 0.0 or t[-1] != 1.0 or np.any(np.diff(t) <= 0):
+            raise InputError("path.t", f"must increase strictly from 0 to 1, got {self.t}")
+
+    def __call__(self, t: float) -> float:
+        """Value at load parameter ``t``."""
+        return float(np.interp(t, self.t, self.values))
+
+
+LoadPath = Linear | Table
+
+
+@dataclass(frozen=True)
+class Body:
+    """A deformable solid.
+
+    Attributes:
+        name: Unique name, used in outputs.
+        material: Its material (elastic or crushable foam).
+        region: Volume physical group; ``None`` for the whole mesh.
+        degree: Polynomial degree of the displacement.
+    """
+
+    name: str
+    material: SolidMaterial
+    region: str | None = None
+    degree: int = 1
+
+    def __post_init__(self) -> None:
+        if not self.name.isidentifier():
+            raise InputError("body.name", f"must be an identifier, got {self.name!r}")
+        if self.degree not in (1, 2):
+            raise InputError("body.degree", f"must be 1 or 2, got {self.degree!r}")
+
+
+@dataclass(frozen=True)
+class Displacement:
+    """Prescribed displacement components on a face of a body.
+
+    A component left as ``None`` is free. A float holds it fixed at that value.
+
+    Attributes:
+        body: Name of the body.
+        region: Surface physical group.
+        x, y, z: Load paths (or constants) of the components [mm].
+        reaction: Record the reaction force on this face each step.
+    """
+
+    body: str
+    region: str
+    x: LoadPath | float | None = None
+    y: LoadPath | float | None = None
+    z: LoadPath | float | None = None
+    reaction: bool = True
+
+    def __post_init__(self) -> None:
+        if self.x is None and self.y is None and self.z is None:
+            raise InputError(f"displacement[{self.region}]", "prescribes no component")
+
+    def components(self) -> list[tuple[int, LoadPath | float]]:
+        """(component index, path) for the prescribed components."""
+        return [(i, p) for i, p in enumerate((self.x, self.y, self.z)) if p is not None]
+
+    def value(self, component: int, t: float) -> float:
+        """Prescribed value of ``component`` at load parameter ``t``."""
+        p = (self.x, self.y, self.z)[component]
+        return float(p) if isinstance(p, int | float) else p(t)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Everything a solver needs to know about what is simulated.
+
+    Attributes:
+        name: Scene name.
+        mesh: The mesh with named physical groups.
+        bodies: The deformable bodies.
+        displacements: Prescribed displacements.
+        quadrature_degree: Quadrature degree of the bulk integrals (None: 2 for
+            degree-1 bodies, 4 for degree 2, see ``docs/theory.md``).
+    """
+
+    name: str
+    mesh: MeshData
+    bodies: tuple[Body, ...]
+    displacements: tuple[Displacement, ...] = ()
+    quadrature_degree: int | None = None
+    metadata: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        names = [b.name for b in self.bodies]
+        if not names:
+            raise InputError("scene.bodies", "a scene needs at least one body")
+        if len(set(names)) != len(names):
+            raise InputError("scene.bodies", f"body names must be unique, got {names}")
+        if len(self.bodies) > 1:
+            raise InputError(
+                "scene.bodies",
+                "several bodies need the interfaces of issue #4 (skins on a core); "
+                "this version solves one body",
+            )
+        for b in self.bodies:
+            if b.region is not None:
+                self.mesh.cells(b.region)
+        for d in self.displacements:
+            if d.body not in names:
+                raise InputError("displacement.body", f"unknown body {d.body!r}; bodies: {names}")
+            self.mesh.facets(d.region)
+
+    def body(self, name: str) -> Body:
+        """The body called ``name``."""
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise InputError("body", f"unknown body {name!r}")

@@ -1,0 +1,1 @@
+"""Solvers and the step lifecycle they share."""

@@ -1,0 +1,220 @@
+"""Implicit solver: Newton (PETSc SNES) on the quasi-static equilibrium of a model."""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import time
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import ufl
+
+from forming import compat  # noqa: F401
+from dolfinx import fem  # noqa: I001
+from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_residual
+from petsc4py import PETSc
+
+from forming.errors import InputError
+from forming.model import KernelFailure, Model
+
+log = logging.getLogger(__name__)
+_ids = itertools.count()
+
+_REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
+
+
+@dataclass(frozen=True)
+class NewtonOptions:
+    """Newton and linear-solver settings.
+
+    Attributes:
+        linear_solver: ``"mumps"`` (direct LU, default) or ``"gamg"`` (CG + smoothed
+            aggregation AMG with rigid-body near-null space, for large models).
+        rtol: Residual reduction relative to the first residual of a step.
+        atol: Absolute residual norm [N].
+        max_it: Newton iterations before a step counts as failed.
+        line_search: ``"basic"`` (full Newton step) or ``"bt"`` (backtracking).
+        predictor: ``"extrapolate"`` (linear in the load parameter) or ``"previous"``.
+        petsc: Extra PETSc options for the SNES prefix, overriding the defaults; the
+            command line (``-forming_<key> value``) overrides both.
+    """
+
+    linear_solver: Literal["mumps", "gamg"] = "mumps"
+    rtol: float = 1e-9
+    atol: float = 1e-8
+    max_it: int = 25
+    line_search: Literal["basic", "bt"] = "basic"
+    predictor: Literal["extrapolate", "previous"] = "extrapolate"
+    petsc: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.linear_solver not in ("mumps", "gamg"):
+            raise InputError("solver.linear_solver", f"must be 'mumps' or 'gamg', got "
+                             f"{self.linear_solver!r}")
+        if self.line_search not in ("basic", "bt"):
+            raise InputError("solver.line_search", f"must be 'basic' or 'bt', got "
+                             f"{self.line_search!r}")
+        if self.predictor not in ("extrapolate", "previous"):
+            raise InputError("solver.predictor", f"must be 'extrapolate' or 'previous', got "
+                             f"{self.predictor!r}")
+        if self.max_it < 1:
+            raise InputError("solver.max_it", f"must be >= 1, got {self.max_it}")
+
+    def petsc_options(self) -> dict[str, str]:
+        """The SNES/KSP options these settings stand for."""
+        opts: dict[str, str] = {
+            "snes_type": "newtonls",
+            "snes_linesearch_type": self.line_search,
+            "snes_rtol": str(self.rtol),
+            "snes_atol": str(self.atol),
+            "snes_stol": "0",
+            "snes_max_it": str(self.max_it),
+            "snes_max_funcs": "100000",
+        }
+        if self.linear_solver == "mumps":
+            opts |= {"ksp_type": "preonly", "pc_type": "lu",
+                     "pc_factor_mat_solver_type": "mumps"}
+        else:
+            opts |= {"ksp_type": "cg", "pc_type": "gamg", "ksp_rtol": "1e-10",
+                     "pc_gamg_threshold": "0.01", "mg_levels_ksp_type": "chebyshev",
+                     "mg_levels_pc_type": "jacobi"}
+        return opts | dict(self.petsc)
+
+
+@dataclass
+class StepResult:
+    """Outcome of one Newton solve."""
+
+    converged: bool
+    iterations: int
+    residuals: list[float]
+    reason: str
+    seconds: float
+
+
+def _rigid_body_modes(V: fem.FunctionSpace) -> PETSc.NullSpace:
+    """Near-null space of 3D elasticity (translations and rotations) for GAMG."""
+    x = V.tabulate_dof_coordinates()
+    bs = V.dofmap.index_map_bs
+    n = V.dofmap.index_map.size_local
+    vecs = [fem.Function(V) for _ in range(6)]
+    for i in range(3):
+        vecs[i].x.array.reshape(-1, bs)[:n, i] = 1.0
+    xs = x[:n]
+    vecs[3].x.array.reshape(-1, bs)[:n, 0] = -xs[:, 1]
+    vecs[3].x.array.reshape(-1, bs)[:n, 1] = xs[:, 0]
+    vecs[4].x.array.reshape(-1, bs)[:n, 1] = -xs[:, 2]
+    vecs[4].x.array.reshape(-1, bs)[:n, 2] = xs[:, 1]
+    vecs[5].x.array.reshape(-1, bs)[:n, 0] = xs[:, 2]
+    vecs[5].x.array.reshape(-1, bs)[:n, 2] = -xs[:, 0]
+    petsc_vecs = [v.x.petsc_vec for v in vecs]
+    from dolfinx import la
+
+    la.orthonormalize(petsc_vecs)
+    return PETSc.NullSpace().create(vectors=petsc_vecs, comm=V.mesh.comm)
+
+
+class ImplicitSolver:
+    """Newton solve of one load step of a :class:`~forming.model.Model`.
+
+    Args:
+        model: The model.
+        options: Newton and linear-solver settings.
+    """
+
+    def __init__(self, model: Model, options: NewtonOptions | None = None):
+        self.model = model
+        self.options = options or NewtonOptions()
+        body = model.body
+        v = ufl.TestFunction(body.V)
+        du = ufl.TrialFunction(body.V)
+        t0 = time.perf_counter()
+        self.prefix = f"forming{next(_ids) or ''}_"
+        opts = self.options.petsc_options()
+        cmdline = PETSc.Options()
+        opts = {k: v for k, v in opts.items() if not cmdline.hasName(f"{self.prefix}{k}")}
+        self.problem = NonlinearProblem(
+            body.residual(v), body.u, bcs=model.dirichlet.bcs, J=body.jacobian(du, v),
+            petsc_options_prefix=self.prefix, petsc_options=opts,
+        )
+        self.compile_seconds = time.perf_counter() - t0
+        snes = self.problem.solver
+        self._fctx = {"u": body.u, "residual": self.problem.F, "jacobian": self.problem.J,
+                      "bcs": model.dirichlet.bcs}
+        self._jctx = {"u": body.u, "jacobian": self.problem.J, "preconditioner": None,
+                      "bcs": model.dirichlet.bcs}
+        snes.setFunction(self._residual, self.problem.b)
+        snes.setJacobian(self._jacobian, self.problem.A, None)
+        snes.setMonitor(self._monitor)
+        if self.options.linear_solver == "gamg":
+            self.problem.A.setNearNullSpace(_rigid_body_modes(body.V))
+        self._residuals: list[float] = []
+        self._failure: str | None = None
+        self._u_prev: np.ndarray | None = None
+        self.assembly_seconds = 0.0
+
+    # -- SNES callbacks --------------------------------------------------------------
+    def _residual(self, snes, x, b) -> None:
+        t0 = time.perf_counter()
+        body = self.model.body
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        body.u.x.petsc_vec.array_w[:] = x.array_r
+        body.u.x.scatter_forward()
+        try:
+            body.update_material(want_tangent=False)
+        except KernelFailure as exc:
+            self._failure = str(exc)
+            b.set(np.nan)
+            return
+        assemble_residual(snes, x, b, **self._fctx)
+        self.assembly_seconds += time.perf_counter() - t0
+
+    def _jacobian(self, snes, x, A, P) -> None:
+        t0 = time.perf_counter()
+        body = self.model.body
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        body.u.x.petsc_vec.array_w[:] = x.array_r
+        body.u.x.scatter_forward()
+        body.update_material(want_tangent=True)
+        assemble_jacobian(snes, x, A, P, **self._jctx)
+        self.assembly_seconds += time.perf_counter() - t0
+
+    def _monitor(self, snes, its, norm) -> None:
+        self._residuals.append(float(norm))
+
+    # -- step lifecycle ----------------------------------------------------------------
+    def predict(self, t_new: float, t_old: float, dt_old: float) -> None:
+        """Initial guess for the step to ``t_new`` (the load is already set)."""
+        u = self.model.body.u
+        if self.options.predictor == "extrapolate" and self._u_prev is not None and dt_old > 0:
+            ratio = (t_new - t_old) / dt_old
+            u.x.array[:] += ratio * (u.x.array - self._u_prev)
+        self.model.body.invalidate()
+
+    def solve(self) -> StepResult:
+        """Run Newton from the current iterate."""
+        self._residuals = []
+        self._failure = None
+        t0 = time.perf_counter()
+        snes = self.problem.solver
+        try:
+            self.problem.solve()
+            reason_code = snes.getConvergedReason()
+            reason = _REASONS.get(reason_code, str(reason_code))
+            ok = reason_code > 0 and all(np.isfinite(self._residuals))
+        except (KernelFailure, PETSc.Error) as exc:
+            ok, reason = False, f"error: {exc}"
+        if self._failure and not ok:
+            reason = f"{reason} ({self._failure})"
+        return StepResult(ok, snes.getIterationNumber(), list(self._residuals), reason,
+                          time.perf_counter() - t0)
+
+    def accept(self, u_before: np.ndarray) -> None:
+        """Remember the previous converged displacement for the predictor."""
+        self._u_prev = u_before
+
+    def reset_predictor(self) -> None:
+        """Forget the previous increment (after a failed step)."""
+        self._u_prev = None
