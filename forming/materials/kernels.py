@@ -329,6 +329,29 @@ def _foam_flow(sig):
 
 
 @numba.njit(cache=True)
+def _rm_phi(mu, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t_out):
+    """Yield value after a return of size ``mu``; fills ``t_out`` with the stress.
+
+    The flow is radial in the rotated Cauchy stress (``dg m = mu sigma``), so for a
+    given ``mu`` the update ``T = T_tr - mu C K T`` is linear:
+    ``T = (I + mu C K)^-1 T_tr`` with ``K = diag(kappa)``.
+    """
+    a = np.empty((6, 6))
+    for i in range(6):
+        for j in range(6):
+            a[i, j] = mu * c_eig[i, j] * k_fac[j]
+        a[i, i] += 1.0
+    t, _ok = _solve_dense(a, t_tr)
+    for i in range(6):
+        t_out[i] = t[i]
+    sig = k_fac * t
+    evp = evp_n - mu * (sig[0] + sig[1] + sig[2])
+    pc, _h = hermite_eval(evp, xs, ys, ds)
+    f, _df, _dfpc = _foam_yield(sig, pc, pt, alpha)
+    return f
+
+
+@numba.njit(cache=True)
 def _stress_update(cmat, ep_n, evp_n, cel, measure, plastic, props, xs, ys, ds, ep_new):
     """Stress update at one point: returns (status, S (Mandel, global), evp_new).
 
@@ -358,59 +381,52 @@ def _stress_update(cmat, ep_n, evp_n, cel, measure, plastic, props, xs, ys, ds, 
         for i in range(6):
             ep_new[i] = ep_n[i]
         return STATUS_OK, s_out, evp_n
-    # Return mapping: unknowns x = (T, dgamma); residuals R1 = T - T_tr + dg C m,
-    # R2 = f(sigma(T), pc(evp)) / scale, evp = evp_n - dg tr(m).
-    t = t_tr.copy()
-    dg = 0.0
-    tscale = math.sqrt(_dot(t_tr, t_tr)) + scale
-    jac = np.zeros((7, 7))
-    res = np.zeros(7)
+    # Return mapping: the smallest root mu > 0 of phi(mu) = f(sigma(mu), pc(evp(mu))),
+    # bracketed by geometric search from phi(0) > 0, then Illinois regula falsi.
+    t = np.zeros(6)
+    cmax = 0.0
+    for i in range(6):
+        cmax = max(cmax, c_eig[i, i] * k_fac[i])
+    tol = 1e-13 * scale
+    mu_lo, f_lo = 0.0, f_tr
+    mu_hi = 1e-4 / cmax
+    f_hi = _rm_phi(mu_hi, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t)
     converged = False
-    for _it in range(60):
-        sig = k_fac * t
-        m, dm = _foam_flow(sig)
-        trm = m[0] + m[1] + m[2]
-        evp = evp_n - dg * trm
-        pc, hpc = hermite_eval(evp, xs, ys, ds)
-        f, df, dfpc = _foam_yield(sig, pc, pt, alpha)
-        cm = _mv(c_eig, m)
-        for i in range(6):
-            res[i] = t[i] - t_tr[i] + dg * cm[i]
-        res[6] = f / scale
-        rnorm = math.sqrt(_dot(res[:6], res[:6])) / tscale + abs(res[6])
-        if rnorm < 1e-13 and _it > 0:
-            converged = True
+    for _b in range(80):
+        if f_hi <= 0.0:
             break
-        dm_dt = dm * k_fac[np.newaxis, :]
-        cdm = _mm(c_eig, dm_dt)
-        # d evp / dT = -dg * one^T dm_dt ; d evp / d dg = -tr(m)
-        for i in range(6):
-            for j in range(6):
-                jac[i, j] = (1.0 if i == j else 0.0) + dg * cdm[i, j]
-            jac[i, 6] = cm[i]
-        for j in range(6):
-            devp = -dg * (dm_dt[0, j] + dm_dt[1, j] + dm_dt[2, j])
-            jac[6, j] = (df[j] * k_fac[j] + dfpc * hpc * devp) / scale
-        jac[6, 6] = dfpc * hpc * (-trm) / scale
-        dx, solved = _solve_dense(jac, -res)
-        if not solved:
-            break
-        for i in range(6):
-            t[i] += dx[i]
-        dg += dx[6]
-        if dg < 0.0:
-            dg = 0.0
+        mu_lo, f_lo = mu_hi, f_hi
+        mu_hi *= 2.0
+        f_hi = _rm_phi(mu_hi, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t)
+    mu = mu_hi
+    if f_hi <= 0.0:
+        side = 0
+        for _it in range(200):
+            mu = (mu_lo * f_hi - mu_hi * f_lo) / (f_hi - f_lo)
+            if not (mu_lo < mu < mu_hi):
+                mu = 0.5 * (mu_lo + mu_hi)
+            fm = _rm_phi(mu, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t)
+            if abs(fm) < tol or (mu_hi - mu_lo) < 1e-15 * mu_hi:
+                converged = True
+                break
+            if fm > 0.0:
+                mu_lo, f_lo = mu, fm
+                if side == 1:
+                    f_hi *= 0.5
+                side = 1
+            else:
+                mu_hi, f_hi = mu, fm
+                if side == -1:
+                    f_lo *= 0.5
+                side = -1
     if not converged:
         return STATUS_RETURN_MAP, s_out, evp_n
     sig = k_fac * t
-    m, _dm = _foam_flow(sig)
-    trm = m[0] + m[1] + m[2]
-    ep_eig_new = ep_eig + dg * m
-    ep_glob = _mv(rot, ep_eig_new)
+    ep_glob = _mv(rot, ep_eig + mu * sig)
     for i in range(6):
         ep_new[i] = ep_glob[i]
     s_out = _mv(rot, s_fac * t)
-    return STATUS_OK, s_out, evp_n - dg * trm
+    return STATUS_OK, s_out, evp_n - mu * (sig[0] + sig[1] + sig[2])
 
 
 @numba.njit(cache=True)
@@ -474,10 +490,20 @@ def evaluate_points(cmats, ep_n, evp_n, cel, measure, plastic, props, xs, ys, ds
                                          plastic, props, xs, ys, ds, ep_tmp)
             stm, sm, _e = _stress_update(cm - dc, ep_n[ip], evp_n[ip], cel, measure,
                                          plastic, props, xs, ys, ds, ep_tmp)
-            if stp != STATUS_OK or stm != STATUS_OK:
-                nbad += 1
-                worst = max(worst, max(stp, stm))
-                break
-            for i in range(6):
-                d_out[ip, 6 * i + j] = (sp[i] - sm[i]) / (2.0 * h)
+            if stp == STATUS_OK and stm == STATUS_OK:
+                for i in range(6):
+                    d_out[ip, 6 * i + j] = (sp[i] - sm[i]) / (2.0 * h)
+            elif stp == STATUS_OK:  # one side failed (e.g. return mapping): one-sided
+                for i in range(6):
+                    d_out[ip, 6 * i + j] = (sp[i] - s[i]) / h
+            elif stm == STATUS_OK:
+                for i in range(6):
+                    d_out[ip, 6 * i + j] = (s[i] - sm[i]) / h
+            else:  # both failed: elastic column
+                stp, sp, _e = _stress_update(cm + dc, ep_n[ip], evp_n[ip], cel, measure,
+                                             False, props, xs, ys, ds, ep_tmp)
+                stm, sm, _e = _stress_update(cm - dc, ep_n[ip], evp_n[ip], cel, measure,
+                                             False, props, xs, ys, ds, ep_tmp)
+                for i in range(6):
+                    d_out[ip, 6 * i + j] = (sp[i] - sm[i]) / (2.0 * h)
     return nbad, worst

@@ -201,6 +201,15 @@ class CrushableFoam:
         e_el = t / self.elasticity.axial_modulus
         evp = -(e_tot - e_el)
         elastic = evp[1:] < 0.05 * np.abs(e_tot[1:])
+        above = np.nonzero(evp[1:] < -0.05 * np.abs(e_tot[1:]))[0]
+        if above.size:
+            i = int(above[0]) + 1
+            raise InputError(
+                "curve",
+                f"point {i} (strain {e[i]:g}, stress {s[i]:g}) lies above the elastic line of "
+                f"axial modulus {self.elasticity.axial_modulus:g} MPa; the modulus is too low "
+                "for this curve (change both together)",
+            )
         if not elastic[0]:
             raise InputError(
                 "curve",

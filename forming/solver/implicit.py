@@ -72,6 +72,8 @@ class NewtonOptions:
             "snes_stol": "0",
             "snes_max_it": str(self.max_it),
             "snes_max_funcs": "100000",
+            # Dirichlet rows of the residual are in mm, the others in N: no divergence test
+            "snes_divergence_tolerance": "-1",
         }
         if self.linear_solver == "mumps":
             opts |= {"ksp_type": "preonly", "pc_type": "lu",
@@ -163,7 +165,8 @@ class ImplicitSolver:
         body.u.x.petsc_vec.array_w[:] = x.array_r
         body.u.x.scatter_forward()
         try:
-            body.update_material(want_tangent=False)
+            # the tangent too: the Dirichlet lifting inside the residual uses the Jacobian
+            body.update_material(want_tangent=True)
         except KernelFailure as exc:
             self._failure = str(exc)
             b.set(np.nan)
@@ -177,7 +180,10 @@ class ImplicitSolver:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         body.u.x.petsc_vec.array_w[:] = x.array_r
         body.u.x.scatter_forward()
-        body.update_material(want_tangent=True)
+        try:  # an exception here would leave SNES unusable: never raise
+            body.update_material(want_tangent=True)
+        except KernelFailure as exc:
+            self._failure = str(exc)
         assemble_jacobian(snes, x, A, P, **self._jctx)
         self.assembly_seconds += time.perf_counter() - t0
 
