@@ -11,6 +11,7 @@ import argparse
 import dataclasses
 import importlib.util
 import logging
+import sys
 import types
 import typing
 from pathlib import Path
@@ -88,6 +89,7 @@ def load_case(name: str) -> types.ModuleType:
     path = find_case(name)
     spec = importlib.util.spec_from_file_location(f"forming_case_{name}", path)
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses resolve annotations through it
     spec.loader.exec_module(module)
     for attr in ("Params", "build"):
         if not hasattr(module, attr):
