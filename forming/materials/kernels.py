@@ -289,43 +289,16 @@ def hermite_eval(x, xs, ys, ds):
 
 @numba.njit(cache=True)
 def _foam_yield(sig, pc, pt, alpha):
-    """Crushable-foam yield value and its derivatives (Mandel, rotated Cauchy stress).
-
-    Returns ``(f, df_dsig, df_dpc)`` with p positive in compression.
-    """
+    """Crushable-foam yield value for a rotated Cauchy stress (Mandel), p > 0 in compression."""
     tr = sig[0] + sig[1] + sig[2]
     p = -tr / 3.0
-    dev = sig.copy()
-    for i in range(3):
-        dev[i] -= tr / 3.0
-    q2 = 1.5 * _dot(dev, dev)
-    p0 = 0.5 * (pc - pt)
-    big_b = 0.5 * alpha * (pc + pt)
-    h = math.sqrt(q2 + alpha * alpha * (p - p0) ** 2)
-    df = 1.5 * dev
-    for i in range(3):
-        df[i] -= alpha * alpha * (p - p0) / 3.0
-    if h > 0.0:
-        df /= h
-    dfdpc = (-alpha * alpha * (p - p0) / h if h > 0.0 else 0.0) * 0.5 - 0.5 * alpha
-    return h - big_b, df, dfdpc
-
-
-@numba.njit(cache=True)
-def _foam_flow(sig):
-    """Flow direction ``m = dg/dsig`` and ``dm/dsig`` for ``g = sqrt(q^2 + 9/2 p^2)``.
-
-    With zero plastic Poisson ratio the potential is ``g^2 = 3/2 sig : sig``, so
-    ``m = 3/2 sig / g``.
-    """
-    g = math.sqrt(max(1.5 * _dot(sig, sig), 1e-300))
-    m = 1.5 * sig / g
-    dm = np.zeros((6, 6))
+    q2 = 0.0
     for i in range(6):
-        dm[i, i] = 1.5 / g
-        for j in range(6):
-            dm[i, j] -= m[i] * m[j] / g
-    return m, dm
+        d = sig[i] - (tr / 3.0 if i < 3 else 0.0)
+        q2 += d * d
+    q2 *= 1.5
+    p0 = 0.5 * (pc - pt)
+    return math.sqrt(q2 + alpha * alpha * (p - p0) ** 2) - 0.5 * alpha * (pc + pt)
 
 
 @numba.njit(cache=True)
@@ -347,16 +320,26 @@ def _rm_phi(mu, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t_out):
     sig = k_fac * t
     evp = evp_n - mu * (sig[0] + sig[1] + sig[2])
     pc, _h = hermite_eval(evp, xs, ys, ds)
-    f, _df, _dfpc = _foam_yield(sig, pc, pt, alpha)
-    return f
+    return _foam_yield(sig, pc, pt, alpha)
 
 
 @numba.njit(cache=True)
-def _stress_update(cmat, ep_n, evp_n, cel, measure, plastic, props, xs, ys, ds, ep_new):
-    """Stress update at one point: returns (status, S (Mandel, global), evp_new).
+def _elastic_update(cmat, cel, measure):
+    """Elastic stress at one point: returns (status, S (Mandel, global))."""
+    s_out = np.zeros(6)
+    ok, q, e_eig, s_fac, _k = _kinematics(cmat, measure)
+    if not ok:
+        return STATUS_INVERTED, s_out
+    rot = mandel_rotation(q)
+    t = _mv(_rtcr(rot, cel), e_eig)
+    return STATUS_OK, _mv(rot, s_fac * t)
 
-    ``ep_new`` receives the new plastic strain (global Mandel). For an elastic
-    material (``plastic`` False) ``ep_n`` is ignored and no return mapping runs.
+
+@numba.njit(cache=True)
+def _foam_update(cmat, ep_n, evp_n, cel, measure, props, xs, ys, ds, ep_new):
+    """Crushable-foam stress update at one point: returns (status, S, evp_new).
+
+    ``ep_new`` receives the new plastic strain (global Mandel).
     """
     s_out = np.zeros(6)
     ok, q, e_eig, s_fac, k_fac = _kinematics(cmat, measure)
@@ -364,17 +347,13 @@ def _stress_update(cmat, ep_n, evp_n, cel, measure, plastic, props, xs, ys, ds, 
         return STATUS_INVERTED, s_out, evp_n
     rot = mandel_rotation(q)
     c_eig = _rtcr(rot, cel)
-    if not plastic:
-        t = _mv(c_eig, e_eig)
-        s_out = _mv(rot, s_fac * t)
-        return STATUS_OK, s_out, evp_n
     ep_eig = _mtv(rot, ep_n)
     t_tr = _mv(c_eig, e_eig - ep_eig)
     pt = props[1]
     alpha = props[0]
     pc_n, _h = hermite_eval(evp_n, xs, ys, ds)
     sig = k_fac * t_tr
-    f_tr, _df, _dfpc = _foam_yield(sig, pc_n, pt, alpha)
+    f_tr = _foam_yield(sig, pc_n, pt, alpha)
     scale = pc_n + pt
     if f_tr <= 1e-12 * scale:
         s_out = _mv(rot, s_fac * t_tr)
@@ -430,80 +409,125 @@ def _stress_update(cmat, ep_n, evp_n, cel, measure, plastic, props, xs, ys, ds, 
 
 
 @numba.njit(cache=True)
-def evaluate_points(cmats, ep_n, evp_n, cel, measure, plastic, props, xs, ys, ds,
-                    s_out, d_out, ep_out, evp_out, want_tangent, h_rel):
-    """Stress, tangent and new state at every point.
+def _perturbation(cm, h_rel, j):
+    """Symmetric perturbation of C that changes Green-Lagrange Mandel component j by h."""
+    cmin = min(cm[0, 0], min(cm[1, 1], cm[2, 2]))
+    h = h_rel * min(1.0, cmin)
+    a = _MI[j]
+    b = _MJ[j]
+    dc = np.zeros((3, 3))
+    if a == b:
+        dc[a, a] = 2.0 * h
+    else:
+        dc[a, b] = 2.0 * h / SQRT2
+        dc[b, a] = 2.0 * h / SQRT2
+    return dc, h
+
+
+@numba.njit(cache=True)
+def _cauchy_green(cmats, ip):
+    cm = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            cm[a, b] = 0.5 * (cmats[ip, 3 * a + b] + cmats[ip, 3 * b + a])
+    return cm
+
+
+@numba.njit(cache=True)
+def elastic_points(cmats, cel, measure, s_out, d_out, want_tangent, h_rel):
+    """Stress and tangent of the elastic solid at every point (no state, no return map).
 
     Args:
         cmats: (n, 9) right Cauchy-Green tensors, row-major.
-        ep_n: (n, 6) converged plastic strain (ignored when not plastic).
-        evp_n: (n,) converged volumetric plastic strain (compression positive).
         cel: (6, 6) Mandel elastic stiffness in the material frame.
-        measure: 0 Hencky, 1 Biot.
-        plastic: run the crushable-foam return mapping.
-        props: [alpha, pt].
-        xs, ys, ds: hardening table pc(evp) with Hermite slopes.
+        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
         s_out: (n, 6) second Piola-Kirchhoff stress (Mandel).
         d_out: (n, 36) tangent dS/dE_GL (Mandel, row-major).
-        ep_out, evp_out: new state (trial, accepted by the caller on convergence).
-        want_tangent: compute ``d_out``.
-        h_rel: perturbation size in Green-Lagrange strain.
+        want_tangent: Compute ``d_out``.
+        h_rel: Perturbation size in Green-Lagrange strain.
 
     Returns:
         (number of points with a non-zero status, worst status).
     """
-    n = cmats.shape[0]
     nbad = 0
     worst = 0
-    ep_tmp = np.zeros(6)
-    for ip in range(n):
-        cm = np.empty((3, 3))
-        for a in range(3):
-            for b in range(3):
-                cm[a, b] = 0.5 * (cmats[ip, 3 * a + b] + cmats[ip, 3 * b + a])
-        st, s, evp = _stress_update(cm, ep_n[ip], evp_n[ip], cel, measure, plastic,
-                                    props, xs, ys, ds, ep_tmp)
+    for ip in range(cmats.shape[0]):
+        cm = _cauchy_green(cmats, ip)
+        st, s = _elastic_update(cm, cel, measure)
         if st != STATUS_OK:
             nbad += 1
             worst = max(worst, st)
             continue
         for i in range(6):
             s_out[ip, i] = s[i]
-        if plastic:
-            for i in range(6):
-                ep_out[ip, i] = ep_tmp[i]
-            evp_out[ip] = evp
         if not want_tangent:
             continue
-        cmin = min(cm[0, 0], min(cm[1, 1], cm[2, 2]))
-        h = h_rel * min(1.0, cmin)
         for j in range(6):
-            a = _MI[j]
-            b = _MJ[j]
-            dc = np.zeros((3, 3))
-            if a == b:
-                dc[a, a] = 2.0 * h
-            else:
-                dc[a, b] = 2.0 * h / SQRT2
-                dc[b, a] = 2.0 * h / SQRT2
-            stp, sp, _e = _stress_update(cm + dc, ep_n[ip], evp_n[ip], cel, measure,
-                                         plastic, props, xs, ys, ds, ep_tmp)
-            stm, sm, _e = _stress_update(cm - dc, ep_n[ip], evp_n[ip], cel, measure,
-                                         plastic, props, xs, ys, ds, ep_tmp)
+            dc, h = _perturbation(cm, h_rel, j)
+            _stp, sp = _elastic_update(cm + dc, cel, measure)
+            _stm, sm = _elastic_update(cm - dc, cel, measure)
+            for i in range(6):
+                d_out[ip, 6 * i + j] = (sp[i] - sm[i]) / (2.0 * h)
+    return nbad, worst
+
+
+@numba.njit(cache=True)
+def foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
+                s_out, d_out, ep_out, evp_out, want_tangent, h_rel):
+    """Stress, tangent and trial state of the crushable foam at every point.
+
+    Args:
+        cmats: (n, 9) right Cauchy-Green tensors, row-major.
+        ep_n: (n, 6) converged plastic strain.
+        evp_n: (n,) converged volumetric plastic strain (compression positive).
+        cel: (6, 6) Mandel elastic stiffness in the material frame.
+        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
+        props: [alpha, pt].
+        xs, ys, ds: Hardening table pc(evp) with Hermite slopes.
+        s_out: (n, 6) second Piola-Kirchhoff stress (Mandel).
+        d_out: (n, 36) tangent dS/dE_GL (Mandel, row-major).
+        ep_out, evp_out: New state (a trial, accepted by the caller on convergence).
+        want_tangent: Compute ``d_out``.
+        h_rel: Perturbation size in Green-Lagrange strain.
+
+    Returns:
+        (number of points with a non-zero status, worst status).
+    """
+    nbad = 0
+    worst = 0
+    ep_tmp = np.zeros(6)
+    for ip in range(cmats.shape[0]):
+        cm = _cauchy_green(cmats, ip)
+        st, s, evp = _foam_update(cm, ep_n[ip], evp_n[ip], cel, measure, props, xs, ys, ds,
+                                  ep_tmp)
+        if st != STATUS_OK:
+            nbad += 1
+            worst = max(worst, st)
+            continue
+        for i in range(6):
+            s_out[ip, i] = s[i]
+            ep_out[ip, i] = ep_tmp[i]
+        evp_out[ip] = evp
+        if not want_tangent:
+            continue
+        for j in range(6):
+            dc, h = _perturbation(cm, h_rel, j)
+            stp, sp, _e = _foam_update(cm + dc, ep_n[ip], evp_n[ip], cel, measure, props,
+                                       xs, ys, ds, ep_tmp)
+            stm, sm, _e = _foam_update(cm - dc, ep_n[ip], evp_n[ip], cel, measure, props,
+                                       xs, ys, ds, ep_tmp)
             if stp == STATUS_OK and stm == STATUS_OK:
                 for i in range(6):
                     d_out[ip, 6 * i + j] = (sp[i] - sm[i]) / (2.0 * h)
-            elif stp == STATUS_OK:  # one side failed (e.g. return mapping): one-sided
+            elif stp == STATUS_OK:  # one side failed: one-sided difference
                 for i in range(6):
                     d_out[ip, 6 * i + j] = (sp[i] - s[i]) / h
             elif stm == STATUS_OK:
                 for i in range(6):
                     d_out[ip, 6 * i + j] = (s[i] - sm[i]) / h
             else:  # both failed: elastic column
-                stp, sp, _e = _stress_update(cm + dc, ep_n[ip], evp_n[ip], cel, measure,
-                                             False, props, xs, ys, ds, ep_tmp)
-                stm, sm, _e = _stress_update(cm - dc, ep_n[ip], evp_n[ip], cel, measure,
-                                             False, props, xs, ys, ds, ep_tmp)
+                _a, sp = _elastic_update(cm + dc, cel, measure)
+                _b, sm = _elastic_update(cm - dc, cel, measure)
                 for i in range(6):
                     d_out[ip, 6 * i + j] = (sp[i] - sm[i]) / (2.0 * h)
     return nbad, worst

@@ -30,7 +30,7 @@ _MEASURES = {
 
 
 class KernelData(NamedTuple):
-    """Arrays handed to :func:`forming.materials.kernels.evaluate_points`."""
+    """Arrays handed to the point kernels of :mod:`forming.materials.kernels`."""
 
     cel: np.ndarray
     measure: int
@@ -74,23 +74,20 @@ def evaluate(
     """Evaluate a point material at right Cauchy-Green tensors ``cmats`` (n, 9)."""
     k = material.kernel_data()
     n = cmats.shape[0]
+    cm = np.ascontiguousarray(cmats, dtype=float)
     s = np.zeros((n, 6))
     d = np.zeros((n, 36)) if want_tangent else np.zeros((0, 36))
-    if k.plastic:
-        ep_in = np.zeros((n, 6)) if ep_n is None else np.ascontiguousarray(ep_n)
-        evp_in = np.zeros(n) if evp_n is None else np.ascontiguousarray(evp_n)
-        ep_out, evp_out = ep_in.copy(), evp_in.copy()
-    else:
-        ep_in = ep_out = np.zeros((0, 6))
-        evp_in = evp_out = np.zeros(0)
-    nbad, worst = kernels.evaluate_points(
-        np.ascontiguousarray(cmats, dtype=float), ep_in, evp_in, k.cel, k.measure, k.plastic,
-        k.props, k.xs, k.ys, k.ds, s, d, ep_out, evp_out, want_tangent, h,
+    if not k.plastic:
+        nbad, worst = kernels.elastic_points(cm, k.cel, k.measure, s, d, want_tangent, h)
+        return PointResult(s, d if want_tangent else None, None, None, int(nbad), int(worst))
+    ep_in = np.zeros((n, 6)) if ep_n is None else np.ascontiguousarray(ep_n)
+    evp_in = np.zeros(n) if evp_n is None else np.ascontiguousarray(evp_n)
+    ep_out, evp_out = ep_in.copy(), evp_in.copy()
+    nbad, worst = kernels.foam_points(
+        cm, ep_in, evp_in, k.cel, k.measure, k.props, k.xs, k.ys, k.ds, s, d, ep_out, evp_out,
+        want_tangent, h,
     )
-    return PointResult(
-        s, d if want_tangent else None, ep_out if k.plastic else None,
-        evp_out if k.plastic else None, int(nbad), int(worst),
-    )
+    return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad), int(worst))
 
 
 def _measure(name: str) -> int:
