@@ -21,6 +21,7 @@ from forming.mesh import box
 from forming.output import plot_curves
 from forming.run import Job
 from forming.scene import Body, Displacement, Linear, Scene
+from forming.solver.implicit import NewtonOptions
 from forming.solver.stepping import StepControl
 
 G_PAPER = 1.56  # MPa, ASTM C273, paper section "Shear testing"
@@ -40,6 +41,7 @@ class Params:
     cells: tuple[int, ...] = (48, 2, 4)
     shear_strain: float = 0.02
     elasticity: Literal["transverse", "isotropic"] = "transverse"
+    linear_solver: Literal["mumps", "gamg"] = "mumps"
 
 
 def build(p: Params) -> Job:
@@ -79,6 +81,7 @@ def build(p: Params) -> Job:
                             "shear strain", "shear stress [MPa]", "Core shear (ASTM C273)")]
 
     return Job(scene=scene, steps=StepControl(initial=0.05, max=0.1),
+               newton=NewtonOptions(linear_solver=p.linear_solver),
                metrics=metrics, plots=plots)
 
 

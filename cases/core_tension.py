@@ -21,6 +21,7 @@ from forming.mesh import box
 from forming.output import plot_curves
 from forming.run import Job
 from forming.scene import Body, Displacement, Linear, Scene
+from forming.solver.implicit import NewtonOptions
 from forming.solver.stepping import StepControl
 
 E_PAPER = 0.2  # MPa, paper section "In-plane tensile testing"
@@ -37,6 +38,7 @@ class Params:
     cells: tuple[int, ...] = (6, 2, 2)
     strain: float = 0.32
     elasticity: Literal["transverse", "isotropic"] = "transverse"
+    linear_solver: Literal["mumps", "gamg"] = "mumps"
 
 
 def build(p: Params) -> Job:
@@ -86,6 +88,7 @@ def build(p: Params) -> Job:
                             "nominal strain", "nominal stress [MPa]", "Core in-plane tension")]
 
     return Job(scene=scene, steps=StepControl(initial=0.05, max=0.1),
+               newton=NewtonOptions(linear_solver=p.linear_solver),
                metrics=metrics, plots=plots)
 
 

@@ -1,0 +1,3 @@
+"""forming: process simulation of press-formed composite sandwich panels."""
+
+__version__ = "0.1.0"

@@ -111,8 +111,9 @@ def run_case(name: str, out: Path, assignments: list[str], build=None, params_cl
 
 def _apply_petsc_args(extra: list[str]) -> None:
     """Pass ``-option value`` pairs left on the command line to PETSc."""
-    from forming import compat  # noqa: F401
     from petsc4py import PETSc
+
+    from forming import compat  # noqa: F401
 
     opts = PETSc.Options()
     i = 0

@@ -15,10 +15,10 @@ from dataclasses import dataclass
 import basix.ufl
 import numpy as np
 import ufl
+from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
-from dolfinx import fem  # noqa: I001
 from forming.materials.solids import PointMaterial, evaluate
 from forming.scene import Body, Displacement, Scene
 
@@ -107,7 +107,11 @@ class SolidBody:
         self.n_points = self._qdofs.size
         self.dx = ufl.Measure("dx", domain=msh, metadata={"quadrature_degree": q})
         F = self.deformation_gradient()
-        self._C_expr = fem.Expression(F.T * F, self.QS.element.interpolation_points)
+        C = F.T * F
+        self._C_expr = fem.Expression(
+            ufl.as_vector([C[i, j] for i in range(3) for j in range(3)] + [ufl.det(F)]),
+            self.QS.element.interpolation_points,
+        )
         self.plastic: PlasticState | None = (
             PlasticState.zeros(self.n_points) if self.material.plastic else None
         )
@@ -154,7 +158,12 @@ class SolidBody:
                 and np.array_equal(self._evaluated_at, key)):
             return
         t0 = time.perf_counter()
-        cm = self._C_expr.eval(self.mesh, self.cells).reshape(-1, 9)
+        cj = self._C_expr.eval(self.mesh, self.cells).reshape(-1, 10)
+        n_inverted = int(np.count_nonzero(cj[:, 9] <= 0.0))
+        if n_inverted:  # C alone cannot tell an inverted element
+            self._evaluated_at = None
+            raise KernelFailure(f"{n_inverted} quadrature points: inverted elements (det F <= 0)")
+        cm = cj[:, :9]
         ps = self.plastic
         res = evaluate(
             self.material, cm, None if ps is None else ps.ep, None if ps is None else ps.evp,
@@ -260,7 +269,7 @@ class Model:
 
     def restore(self, snap: list) -> None:
         """Return to a snapshot."""
-        for b, (u, hist) in zip(self.bodies.values(), snap):
+        for b, (u, hist) in zip(self.bodies.values(), snap, strict=True):
             b.u.x.array[:] = u
             if hist is not None:
                 b.plastic.restore(hist)

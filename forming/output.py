@@ -11,10 +11,10 @@ import math
 from pathlib import Path
 
 import numpy as np
+from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat
-from dolfinx import fem  # noqa: I001
 
 
 def _clean(value):

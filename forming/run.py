@@ -9,9 +9,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from dolfinx import fem  # noqa: I001
 
 from forming import compat
-from dolfinx import fem  # noqa: I001
 from forming.log import Progress
 from forming.model import Model
 from forming.output import Recorder

@@ -124,7 +124,8 @@ case "$cmd" in
         ;;
     test)
         rc=0
-        "$venv/bin/python" -m pytest "$@" || rc=$?
+        "$venv/bin/ruff" check --quiet . || rc=$?
+        "$venv/bin/python" -m pytest "$@" || { r=$?; [[ $rc -eq 0 ]] && rc=$r; }
         if [[ $rc -eq 5 ]]; then
             echo "dev.sh: error: pytest collected no tests (exit 5); failing so CI cannot pass silently" >&2
             exit 1

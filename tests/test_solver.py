@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 import ufl
-
 from dolfinx import fem  # noqa: I001
+
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
 from forming.model import Model

@@ -18,7 +18,8 @@ Conventions:
 
 The tangent ``D = dS/dE_GL`` is computed by central perturbation of the whole
 stress update (Miehe 1996, CMAME 134), which gives the algorithmic (consistent)
-tangent up to an O(h^2) truncation error (about 1e-9 relative here).
+tangent up to an O(h^2) truncation error (about 1e-10 relative; larger only where
++/-h straddles the yield surface).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ _MI = np.array([0, 1, 2, 1, 0, 0], dtype=np.int64)
 _MJ = np.array([0, 1, 2, 2, 2, 1], dtype=np.int64)
 
 STATUS_OK = 0
-STATUS_INVERTED = 1  # det F <= 0 or C not positive definite
+STATUS_INVERTED = 1  # C not positive definite (det F <= 0 is checked by the caller)
 STATUS_RETURN_MAP = 2  # local Newton of the return mapping did not converge
 
 MEASURE_HENCKY = 0
@@ -483,10 +484,13 @@ def foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
         cel: (6, 6) Mandel elastic stiffness in the material frame.
         measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
         props: [alpha, pt].
-        xs, ys, ds: Hardening table pc(evp) with Hermite slopes.
+        xs: Hardening table abscissae (volumetric plastic strain).
+        ys: Hardening table values pc [MPa].
+        ds: Hermite slopes of the table.
         s_out: (n, 6) second Piola-Kirchhoff stress (Mandel).
         d_out: (n, 36) tangent dS/dE_GL (Mandel, row-major).
-        ep_out, evp_out: New state (a trial, accepted by the caller on convergence).
+        ep_out: (n, 6) new plastic strain (a trial, accepted on convergence).
+        evp_out: (n,) new volumetric plastic strain.
         want_tangent: Compute ``d_out``.
         h_rel: Perturbation size in Green-Lagrange strain.
 

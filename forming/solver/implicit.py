@@ -10,12 +10,11 @@ from typing import Literal
 
 import numpy as np
 import ufl
-
-from forming import compat  # noqa: F401
 from dolfinx import fem  # noqa: I001
 from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_residual
 from petsc4py import PETSc
 
+from forming import compat  # noqa: F401
 from forming.errors import InputError
 from forming.model import KernelFailure, Model
 
@@ -30,7 +29,7 @@ class NewtonOptions:
     """Newton and linear-solver settings.
 
     Attributes:
-        linear_solver: ``"mumps"`` (direct LU, default) or ``"gamg"`` (CG + smoothed
+        linear_solver: ``"mumps"`` (direct LU, default) or ``"gamg"`` (GMRES + smoothed
             aggregation AMG with rigid-body near-null space, for large models).
         rtol: Residual reduction relative to the first residual of a step.
         atol: Absolute residual norm [N].
@@ -79,7 +78,8 @@ class NewtonOptions:
             opts |= {"ksp_type": "preonly", "pc_type": "lu",
                      "pc_factor_mat_solver_type": "mumps"}
         else:
-            opts |= {"ksp_type": "cg", "pc_type": "gamg", "ksp_rtol": "1e-10",
+            # GMRES: the foam's non-associated flow makes the tangent unsymmetric
+            opts |= {"ksp_type": "gmres", "pc_type": "gamg", "ksp_rtol": "1e-10",
                      "pc_gamg_threshold": "0.01", "mg_levels_ksp_type": "chebyshev",
                      "mg_levels_pc_type": "jacobi"}
         return opts | dict(self.petsc)
@@ -111,11 +111,10 @@ def _rigid_body_modes(V: fem.FunctionSpace) -> PETSc.NullSpace:
     vecs[4].x.array.reshape(-1, bs)[:n, 2] = xs[:, 1]
     vecs[5].x.array.reshape(-1, bs)[:n, 0] = xs[:, 2]
     vecs[5].x.array.reshape(-1, bs)[:n, 2] = -xs[:, 0]
-    petsc_vecs = [v.x.petsc_vec for v in vecs]
     from dolfinx import la
 
-    la.orthonormalize(petsc_vecs)
-    return PETSc.NullSpace().create(vectors=petsc_vecs, comm=V.mesh.comm)
+    la.orthonormalize([v.x for v in vecs])
+    return PETSc.NullSpace().create(vectors=[v.x.petsc_vec for v in vecs], comm=V.mesh.comm)
 
 
 class ImplicitSolver:
@@ -220,7 +219,3 @@ class ImplicitSolver:
     def accept(self, u_before: np.ndarray) -> None:
         """Remember the previous converged displacement for the predictor."""
         self._u_prev = u_before
-
-    def reset_predictor(self) -> None:
-        """Forget the previous increment (after a failed step)."""
-        self._u_prev = None

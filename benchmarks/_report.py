@@ -1,0 +1,60 @@
+"""Helpers shared by the benchmarks: run a case as a process, update docs sections."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+PERFORMANCE_MD = REPO / "docs" / "performance.md"
+
+
+def run_case_process(case: str, out: Path, ranks: int = 1, sets: tuple[str, ...] = (),
+                     env: dict[str, str] | None = None) -> dict:
+    """Run ``cases/<case>.py`` in a fresh process; returns the summary plus ``process_s``."""
+    cmd = [sys.executable, f"cases/{case}.py", "--out", str(out)]
+    for s in sets:
+        cmd += ["--set", s]
+    if ranks > 1:
+        cmd = [str(Path(sys.executable).parent / "mpirun"), "-n", str(ranks)] + cmd
+    full_env = dict(os.environ, OMP_NUM_THREADS="1", **(env or {}))
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, cwd=REPO, env=full_env, capture_output=True, text=True)
+    elapsed = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stderr[-3000:]}")
+    summary = json.loads((out / "summary.json").read_text())
+    summary["process_s"] = elapsed
+    return summary
+
+
+def machine() -> str:
+    """One line describing the machine the figures were measured on."""
+    cpu = "unknown CPU"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}"
+
+
+def update_section(name: str, body: str, path: Path = PERFORMANCE_MD) -> None:
+    """Replace the text between ``<!-- BEGIN name -->`` and ``<!-- END name -->``."""
+    text = path.read_text() if path.exists() else "# Performance\n"
+    begin, end = f"<!-- BEGIN {name} -->", f"<!-- END {name} -->"
+    block = f"{begin}\n{body.rstrip()}\n{end}"
+    if begin in text:
+        text = re.sub(re.escape(begin) + r".*?" + re.escape(end), lambda _m: block, text,
+                      flags=re.S)
+    else:
+        text = text.rstrip() + "\n\n" + block + "\n"
+    path.write_text(text)
