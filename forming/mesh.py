@@ -67,6 +67,7 @@ def box(
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
     name: str = "core",
     comm: MPI.Comm = MPI.COMM_WORLD,
+    grading: tuple[float, float, float] = (1.0, 1.0, 1.0),
 ) -> MeshData:
     """Structured hexahedral block with faces ``xmin, xmax, ymin, ymax, bottom, top``.
 
@@ -76,11 +77,15 @@ def box(
         origin: Corner with the smallest coordinates.
         name: Name of the volume group.
         comm: Communicator of the mesh.
+        grading: Per-axis ratio of consecutive cell sizes along +x, +y, +z (1: uniform;
+            > 1 refines towards the low side, < 1 towards the high side).
     """
     if len(size) != 3 or any(not np.isfinite(s) or s <= 0 for s in size):
         raise InputError("mesh.size", f"edge lengths must be three positive numbers, got {size}")
     if len(cells) != 3 or any(int(n) != n or n < 1 for n in cells):
         raise InputError("mesh.cells", f"cell counts must be three integers >= 1, got {cells}")
+    if len(grading) != 3 or any(not np.isfinite(g) or g <= 0 for g in grading):
+        raise InputError("mesh.grading", f"must be three positive ratios, got {grading}")
     import gmsh
 
     initialised = gmsh.isInitialized()
@@ -97,7 +102,12 @@ def box(
                 lo = gmsh.model.getBoundingBox(*curve)
                 ext = np.abs(np.array(lo[3:]) - np.array(lo[:3]))
                 axis = int(np.argmax(ext))
-                gmsh.model.mesh.setTransfiniteCurve(curve[1], int(cells[axis]) + 1)
+                lo_t, hi_t = gmsh.model.getParametrizationBounds(1, curve[1])
+                x0 = gmsh.model.getValue(1, curve[1], [lo_t[0]])[axis]
+                x1 = gmsh.model.getValue(1, curve[1], [hi_t[0]])[axis]
+                coef = grading[axis] if x1 > x0 else 1.0 / grading[axis]
+                gmsh.model.mesh.setTransfiniteCurve(curve[1], int(cells[axis]) + 1,
+                                                    "Progression", coef)
             for surf in gmsh.model.getEntities(2):
                 gmsh.model.mesh.setTransfiniteSurface(surf[1])
                 gmsh.model.mesh.setRecombine(2, surf[1])

@@ -241,19 +241,73 @@ class Model:
     """The discrete model of a scene (one body in this version)."""
 
     def __init__(self, scene: Scene):
+        from forming.contact.terms import ContactTerm
+
         self.scene = scene
         self.comm = scene.mesh.mesh.comm
         self.bodies = {b.name: SolidBody(b, scene) for b in scene.bodies}
         self.dirichlet = DirichletSet(scene, self.bodies)
+        md = scene.mesh
+        box = self.bounding_box()
+        extent = box[1] - box[0]
+        self.tractions = []
+        for tr in scene.tractions:
+            const = fem.Constant(md.mesh, np.zeros(3))
+            ds = ufl.Measure("ds", domain=md.mesh, subdomain_data=md.facet_tags,
+                             subdomain_id=md.names[tr.region][1])
+            self.tractions.append((tr, const, ds))
+        self.contacts = [
+            ContactTerm(c, scene.tool(c.tool), self.bodies[c.body], md.facet_tags,
+                        md.facets(c.region), md.names[c.region][1], min(extent))
+            for c in scene.contacts
+        ]
+
+    def bounding_box(self) -> np.ndarray:
+        """Reference bounding box of the mesh, (min xyz, max xyz), over all ranks."""
+        x = self.scene.mesh.mesh.geometry.x
+        lo = [self.comm.allreduce(x[:, i].min(), op=MPI.MIN) for i in range(3)]
+        hi = [self.comm.allreduce(x[:, i].max(), op=MPI.MAX) for i in range(3)]
+        return np.array([lo, hi])
+
+    def tool_bounds(self) -> tuple[float, ...]:
+        """Box in which tool surfaces are drawn: the body's box, padded."""
+        box = self.bounding_box()
+        pad = 0.35 * float(np.max(box[1] - box[0]))
+        return tuple(float(v) for i in range(3) for v in (box[0, i] - pad, box[1, i] + pad))
+
+    def tool_resolution(self) -> float:
+        """Grid spacing for drawing tool surfaces [mm]."""
+        b = self.tool_bounds()
+        return max(b[1] - b[0], b[3] - b[2], b[5] - b[4]) / 120.0
 
     @property
     def body(self) -> SolidBody:
         """The single body."""
         return next(iter(self.bodies.values()))
 
+    def residual(self, v) -> ufl.Form:
+        """Residual of the single body, with its contact terms."""
+        form = self.body.residual(v)
+        for _tr, const, ds in self.tractions:  # only when the scene has loads
+            form = form - ufl.dot(const, v) * ds
+        for c in self.contacts:
+            form = form + c.residual(v)
+        return form
+
+    def jacobian(self, du, v) -> ufl.Form:
+        """Consistent Jacobian of :meth:`residual`."""
+        form = self.body.jacobian(du, v)
+        for c in self.contacts:
+            form = form + ufl.derivative(c.residual(v), self.body.u, du)
+        return form
+
     def set_load(self, t: float) -> None:
-        """Apply the loading programme at ``t``."""
+        """Apply the loading programme at ``t`` (prescribed displacements, tool positions)."""
         self.dirichlet.set_load(t)
+        for tr, const, _ds in self.tractions:
+            const.value[:] = tr.value(t)
+        for c in self.contacts:
+            c.set_load(t)
 
     def commit(self) -> None:
         """Accept the converged state as history."""
@@ -261,16 +315,24 @@ class Model:
             if b.plastic is not None:
                 b.plastic.commit()
             b.invalidate()
+        for c in self.contacts:
+            c.commit()
 
-    def snapshot(self) -> list:
-        """Copy of the converged state (displacements and history)."""
-        return [(b.u.x.array.copy(), None if b.plastic is None else b.plastic.snapshot())
-                for b in self.bodies.values()]
+    def snapshot(self) -> dict:
+        """Copy of the converged state (displacements, history, contact multipliers)."""
+        return {
+            "bodies": [(b.u.x.array.copy(),
+                        None if b.plastic is None else b.plastic.snapshot())
+                       for b in self.bodies.values()],
+            "contacts": [c.snapshot() for c in self.contacts],
+        }
 
-    def restore(self, snap: list) -> None:
+    def restore(self, snap: dict) -> None:
         """Return to a snapshot."""
-        for b, (u, hist) in zip(self.bodies.values(), snap, strict=True):
+        for b, (u, hist) in zip(self.bodies.values(), snap["bodies"], strict=True):
             b.u.x.array[:] = u
             if hist is not None:
                 b.plastic.restore(hist)
             b.invalidate()
+        for c, cs in zip(self.contacts, snap["contacts"], strict=True):
+            c.restore(cs)

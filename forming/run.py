@@ -24,6 +24,7 @@ log = logging.getLogger(__name__)
 Probe = Callable[[Model], dict[str, float]]
 Metrics = Callable[[Recorder, Model], dict]
 Plots = Callable[[Recorder, Path], list[Path]]
+Pictures = Callable[[Model, Path], list[Path]]
 
 
 @dataclass(frozen=True)
@@ -37,6 +38,7 @@ class Job:
         probe: Extra history columns, evaluated after every converged step (collective).
         metrics: The case's named figures, evaluated at the end (collective).
         plots: PNG plots from the history (called on rank 0).
+        pictures: PNG pictures of the final state (collective: gathers on rank 0).
         field_every: Write ParaView fields every this many converged steps (and last).
     """
 
@@ -46,21 +48,33 @@ class Job:
     probe: Probe | None = None
     metrics: Metrics | None = None
     plots: Plots | None = None
+    pictures: Pictures | None = None
     field_every: int = 1
 
 
 class _Fields:
-    """ParaView output: displacement and, for plastic bodies, the cell-mean plastic strain."""
+    """ParaView output: displacement, cell-mean plastic strain, tool surfaces."""
 
     def __init__(self, model: Model, recorder: Recorder):
         self.model = model
+        self.recorder = recorder
         body = model.body
         recorder.add_fields("displacement", [body.u])
+        self.tools = None
+        if model.scene.tools and model.comm.rank == 0:
+            from forming.contact.render import ToolSeries
+
+            self.tools = ToolSeries(recorder.out, [(t.name, t.shape) for t in model.scene.tools],
+                                    model.tool_bounds(), model.tool_resolution())
         self.evp = None
         if body.plastic is not None:
             W = fem.functionspace(body.mesh, ("DG", 0))
             self.evp = fem.Function(W, name="volumetric_plastic_strain")
             recorder.add_fields("plastic_strain", [self.evp])
+
+    def write_tools(self, step: int, t: float) -> None:
+        if self.tools is not None:
+            self.tools.write(step, t, {tl.name: tl.offset(t) for tl in self.model.scene.tools})
 
     def update(self) -> None:
         body = self.model.body
@@ -94,6 +108,12 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
             "newton_iterations": res_its, "residual": res_norm, "step_wall_s": step_s,
         }
         row |= {f"reaction_{k}_N": v for k, v in model.dirichlet.reactions(comm).items()}
+        for c in model.contacts:
+            f = c.force()
+            row |= {f"force_{c.tool.name}_{'xyz'[i]}_N": f[i] for i in range(3)}
+        if model.contacts:
+            row["max_penetration_mm"] = max(c.penetration() for c in model.contacts)
+            row["augmentations"] = solver.last_augmentations
         if job.probe is not None:
             row |= job.probe(model)
         recorder.record(row)
@@ -102,6 +122,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
     record(0, 0.0, 0.0)
     fields.update()
     recorder.write_fields(0.0)
+    fields.write_tools(0, 0.0)
     written_t = 0.0
     while not stepper.done:
         t_old = stepper.t
@@ -113,7 +134,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
         newton_total += res.iterations
         if res.converged:
             model.commit()
-            solver.accept(snap[0][0])
+            solver.accept(snap["bodies"][0][0])
             stepper.accept(t_new, res.iterations)
             record(res.iterations, res.residuals[-1] if res.residuals else 0.0, res.seconds)
             log.info("step %d t=%.5f dt=%.3g newton=%d |r|=%.2e %.2fs", stepper.n_accepted,
@@ -123,6 +144,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
             if stepper.n_accepted % job.field_every == 0 or stepper.done:
                 fields.update()
                 recorder.write_fields(t_new)
+                fields.write_tools(stepper.n_accepted, t_new)
                 written_t = t_new
             continue
         model.restore(snap)
@@ -138,6 +160,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
     if written_t != stepper.t:
         fields.update()
         recorder.write_fields(stepper.t)
+        fields.write_tools(stepper.n_accepted, stepper.t)
     recorder.close()
 
     metrics = job.metrics(recorder, model) if job.metrics is not None else {}
@@ -161,8 +184,11 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
         "versions": compat.versions(),
         "parameters": parameters,
         "outputs": ["summary.json", "history.csv", "displacement.bp"]
-        + (["plastic_strain.bp"] if body.plastic is not None else []),
+        + (["plastic_strain.bp"] if body.plastic is not None else [])
+        + [f"tool_{t.name}.pvd" for t in job.scene.tools],
     }
+    if job.pictures is not None:
+        summary["outputs"] += [p.name for p in job.pictures(model, recorder.out)]
     if comm.rank == 0 and job.plots is not None and recorder.rows:
         pngs = job.plots(recorder, recorder.out)
         summary["outputs"] += [p.name for p in pngs]

@@ -112,6 +112,88 @@ class Displacement:
 
 
 @dataclass(frozen=True)
+class Traction:
+    """A dead traction on a face of a body, per unit reference area [MPa].
+
+    Attributes:
+        body: Name of the body.
+        region: Surface physical group.
+        x, y, z: Load paths (or constants) of the traction components [MPa].
+    """
+
+    body: str
+    region: str
+    x: LoadPath | float = 0.0
+    y: LoadPath | float = 0.0
+    z: LoadPath | float = 0.0
+
+    def value(self, t: float) -> np.ndarray:
+        """Traction vector at load parameter ``t``."""
+        return np.array([float(p) if isinstance(p, int | float) else p(t)
+                         for p in (self.x, self.y, self.z)])
+
+
+@dataclass(frozen=True)
+class Tool:
+    """A rigid tool moved along a prescribed path.
+
+    Attributes:
+        name: Unique name, used in outputs (``force_<name>_z_N``).
+        shape: Its shape in the initial position (see :mod:`forming.contact.shapes`).
+        x, y, z: Displacement paths of the tool [mm]; ``None`` or 0 keeps it fixed.
+    """
+
+    name: str
+    shape: object
+    x: LoadPath | float | None = None
+    y: LoadPath | float | None = None
+    z: LoadPath | float | None = None
+
+    def __post_init__(self) -> None:
+        if not self.name.isidentifier():
+            raise InputError("tool.name", f"must be an identifier, got {self.name!r}")
+
+    def offset(self, t: float) -> np.ndarray:
+        """Tool displacement at load parameter ``t``."""
+        out = np.zeros(3)
+        for i, p in enumerate((self.x, self.y, self.z)):
+            if p is not None:
+                out[i] = float(p) if isinstance(p, int | float) else p(t)
+        return out
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Frictional contact between a surface region of a body and a tool.
+
+    Attributes:
+        body: Name of the body.
+        region: Surface physical group that may touch the tool.
+        tool: Name of the tool.
+        friction: Coulomb coefficient (0: frictionless, no tangential terms compiled).
+        penalty: Augmented-Lagrangian penalty [N/mm^3]; default 10 E / h from the body's
+            largest elastic stiffness and the smallest surface edge.
+        tolerance: Admissible penetration [mm]; default 1% of the smallest surface edge
+            or of the body's thickness, whichever is smaller.
+    """
+
+    body: str
+    region: str
+    tool: str
+    friction: float = 0.0
+    penalty: float | None = None
+    tolerance: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.friction) and self.friction >= 0):
+            raise InputError("contact.friction", f"must be >= 0, got {self.friction!r}")
+        for name in ("penalty", "tolerance"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise InputError(f"contact.{name}", f"must be positive, got {v!r}")
+
+
+@dataclass(frozen=True)
 class Scene:
     """Everything a solver needs to know about what is simulated.
 
@@ -120,6 +202,9 @@ class Scene:
         mesh: The mesh with named physical groups.
         bodies: The deformable bodies.
         displacements: Prescribed displacements.
+        tractions: Dead tractions on faces.
+        tools: Rigid tools.
+        contacts: Contact pairs between body surfaces and tools.
         quadrature_degree: Quadrature degree of the bulk integrals (None: 2 for
             degree-1 bodies, 4 for degree 2, see ``docs/theory.md``).
     """
@@ -128,6 +213,9 @@ class Scene:
     mesh: MeshData
     bodies: tuple[Body, ...]
     displacements: tuple[Displacement, ...] = ()
+    tractions: tuple[Traction, ...] = ()
+    tools: tuple[Tool, ...] = ()
+    contacts: tuple[Contact, ...] = ()
     quadrature_degree: int | None = None
     metadata: dict = field(default_factory=dict, compare=False)
 
@@ -150,6 +238,23 @@ class Scene:
             if d.body not in names:
                 raise InputError("displacement.body", f"unknown body {d.body!r}; bodies: {names}")
             self.mesh.facets(d.region)
+        for tr in self.tractions:
+            if tr.body not in names:
+                raise InputError("traction.body", f"unknown body {tr.body!r}; bodies: {names}")
+            self.mesh.facets(tr.region)
+        tools = [t.name for t in self.tools]
+        if len(set(tools)) != len(tools):
+            raise InputError("scene.tools", f"tool names must be unique, got {tools}")
+        for c in self.contacts:
+            if c.body not in names:
+                raise InputError("contact.body", f"unknown body {c.body!r}; bodies: {names}")
+            if c.tool not in tools:
+                raise InputError("contact.tool", f"unknown tool {c.tool!r}; tools: {tools}")
+            self.mesh.facets(c.region)
+
+    def tool(self, name: str) -> Tool:
+        """The tool called ``name``."""
+        return next(t for t in self.tools if t.name == name)
 
     def body(self, name: str) -> Body:
         """The body called ``name``."""

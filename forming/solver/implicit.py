@@ -36,6 +36,8 @@ class NewtonOptions:
         max_it: Newton iterations before a step counts as failed.
         line_search: ``"basic"`` (full Newton step) or ``"bt"`` (backtracking).
         predictor: ``"extrapolate"`` (linear in the load parameter) or ``"previous"``.
+        max_augmentations: Uzawa updates of the contact multipliers per step before the
+            step counts as failed.
         petsc: Extra PETSc options for the SNES prefix, overriding the defaults; the
             command line (``-forming_<key> value``) overrides both.
     """
@@ -46,6 +48,7 @@ class NewtonOptions:
     max_it: int = 25
     line_search: Literal["basic", "bt"] = "basic"
     predictor: Literal["extrapolate", "previous"] = "extrapolate"
+    max_augmentations: int = 25
     petsc: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -94,6 +97,7 @@ class StepResult:
     residuals: list[float]
     reason: str
     seconds: float
+    augmentations: int = 0
 
 
 def _rigid_body_modes(V: fem.FunctionSpace) -> PETSc.NullSpace:
@@ -137,7 +141,7 @@ class ImplicitSolver:
         cmdline = PETSc.Options()
         opts = {k: v for k, v in opts.items() if not cmdline.hasName(f"{self.prefix}{k}")}
         self.problem = NonlinearProblem(
-            body.residual(v), body.u, bcs=model.dirichlet.bcs, J=body.jacobian(du, v),
+            model.residual(v), body.u, bcs=model.dirichlet.bcs, J=model.jacobian(du, v),
             petsc_options_prefix=self.prefix, petsc_options=opts,
         )
         self.compile_seconds = time.perf_counter() - t0
@@ -155,6 +159,7 @@ class ImplicitSolver:
         self._failure: str | None = None
         self._u_prev: np.ndarray | None = None
         self.assembly_seconds = 0.0
+        self.last_augmentations = 0
 
     # -- SNES callbacks --------------------------------------------------------------
     def _residual(self, snes, x, b) -> None:
@@ -198,23 +203,51 @@ class ImplicitSolver:
             u.x.array[:] += ratio * (u.x.array - self._u_prev)
         self.model.body.invalidate()
 
-    def solve(self) -> StepResult:
-        """Run Newton from the current iterate."""
-        self._residuals = []
-        self._failure = None
-        t0 = time.perf_counter()
+    def _newton(self) -> tuple[bool, str]:
         snes = self.problem.solver
+        self._failure = None
         try:
             self.problem.solve()
-            reason_code = snes.getConvergedReason()
-            reason = _REASONS.get(reason_code, str(reason_code))
-            ok = reason_code > 0 and all(np.isfinite(self._residuals))
+            code = snes.getConvergedReason()
+            reason = _REASONS.get(code, str(code))
+            ok = code > 0 and all(np.isfinite(self._residuals))
         except (KernelFailure, PETSc.Error) as exc:
             ok, reason = False, f"error: {exc}"
         if self._failure and not ok:
             reason = f"{reason} ({self._failure})"
-        return StepResult(ok, snes.getIterationNumber(), list(self._residuals), reason,
-                          time.perf_counter() - t0)
+        return ok, reason
+
+    def solve(self) -> StepResult:
+        """Run Newton from the current iterate.
+
+        With contact, repeat with updated multipliers (Uzawa) until every pair's
+        constraint violation is within its tolerance.
+        """
+        self._residuals = []
+        t0 = time.perf_counter()
+        snes = self.problem.solver
+        iterations = 0
+        contacts = self.model.contacts
+        ok, reason, aug = False, "", 0
+        for aug in range(self.options.max_augmentations + 1):
+            ok, reason = self._newton()
+            iterations += snes.getIterationNumber()
+            if not ok or not contacts:
+                break
+            worst = max(c.violation() / c.tolerance for c in contacts)
+            if worst <= 1.0:
+                break  # keep the multipliers the solution was computed with
+            if aug == self.options.max_augmentations:
+                continue  # no further solve: leave the loop through its else branch
+            for c in contacts:
+                c.augment()
+        else:
+            ok, reason = False, (f"contact constraints not met after "
+                                 f"{self.options.max_augmentations} augmentations")
+        self.last_augmentations = aug
+        self.model.body.invalidate()
+        return StepResult(ok, iterations, list(self._residuals), reason,
+                          time.perf_counter() - t0, aug)
 
     def accept(self, u_before: np.ndarray) -> None:
         """Remember the previous converged displacement for the predictor."""

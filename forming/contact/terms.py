@@ -1,0 +1,196 @@
+"""Augmented-Lagrangian frictional contact of a body's surface with a rigid tool.
+
+Nodal contact: the terms are integrated with the vertex rule, so gaps, pressures and
+tangential tractions live at the surface nodes, held in P1 multiplier functions
+(``lambda_N``, and ``lambda_T`` when the pair has friction). Within a Newton solve the
+multipliers are fixed; between solves (Uzawa) they are set to the tractions the
+solution produced, until the constraint violation is below the tolerance. See
+``docs/theory.md``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem, mesh  # noqa: I001
+from mpi4py import MPI
+
+from forming.contact.shapes import UFL
+from forming.scene import Contact, Tool
+
+
+def surface_edge_min(msh, facets: np.ndarray) -> float:
+    """Shortest edge length of the given facets, over all ranks [mm]."""
+    msh.topology.create_connectivity(2, 1)
+    msh.topology.create_connectivity(1, 3)
+    edges = mesh.compute_incident_entities(msh.topology, facets.astype(np.int32), 2, 1)
+    local = float(msh.h(1, edges).min()) if edges.size else np.inf
+    return msh.comm.allreduce(local, op=MPI.MIN)
+
+
+class ContactTerm:
+    """Contact between a surface region of a body and one rigid tool.
+
+    Args:
+        contact: The scene's contact pair.
+        tool: The tool it refers to.
+        body: The :class:`~forming.model.SolidBody` whose surface touches.
+        facet_tags: Facet tags of the body's mesh.
+        facets: Local facet indices of the region.
+        tag: The region's tag.
+        thickness: Smallest extent of the body [mm] (caps the default tolerance).
+    """
+
+    def __init__(self, contact: Contact, tool: Tool, body, facet_tags, facets: np.ndarray,
+                 tag: int, thickness: float):
+        self.contact = contact
+        self.tool = tool
+        self.body = body
+        msh = body.mesh
+        self.comm = msh.comm
+        h = surface_edge_min(msh, facets)
+        self.tolerance = contact.tolerance or 0.01 * min(h, thickness)
+        stiffness = float(np.max(np.diag(body.material.kernel_data().cel)))
+        self.penalty = contact.penalty or 10.0 * stiffness / h
+        self.friction = contact.friction
+        self.ds = ufl.Measure("ds", domain=msh, subdomain_data=facet_tags, subdomain_id=tag,
+                              metadata={"quadrature_rule": "vertex", "quadrature_degree": 1})
+        W = fem.functionspace(msh, ("Lagrange", 1))
+        self.lam_n = fem.Function(W, name=f"pressure_{tool.name}")
+        self.offset = fem.Constant(msh, np.zeros(3))
+        self.eps = fem.Constant(msh, self.penalty)
+        u = body.u
+        x = ufl.SpatialCoordinate(msh)
+        p = ufl.variable(x + u - self.offset)
+        self.gap = tool.shape.distance(p, UFL)
+        grad = ufl.diff(self.gap, p)
+        self.normal = grad / ufl.sqrt(ufl.dot(grad, grad) + 1e-30)
+        trial_p = self.lam_n - self.eps * self.gap
+        # ">=": a node that just touches (g = 0) is active, so a body resting on a tool
+        # is supported in the first Jacobian
+        self.pressure = ufl.conditional(ufl.ge(trial_p, 0.0), trial_p, 0.0)
+        traction = self.pressure * self.normal
+        self.lam_t = None
+        if self.friction > 0.0:  # a frictionless pair compiles no tangential terms
+            Wv = fem.functionspace(msh, ("Lagrange", 1, (3,)))
+            self.lam_t = fem.Function(Wv, name=f"shear_{tool.name}")
+            self.u_prev = fem.Function(body.V)
+            self.offset_prev = fem.Constant(msh, np.zeros(3))
+            n = self.normal
+            proj = ufl.Identity(3) - ufl.outer(n, n)
+            slip = proj * (u - self.u_prev - (self.offset - self.offset_prev))
+            trial = proj * self.lam_t - self.eps * slip
+            size = ufl.sqrt(ufl.dot(trial, trial) + 1e-30)
+            limit = self.friction * self.pressure
+            # stick up to the cone (+1e-12 MPa): a node that just touches, with zero pressure
+            # and zero trial shear, sticks instead of slipping in a round-off direction
+            self.shear = ufl.conditional(ufl.le(size, limit + 1e-12), trial,
+                                         limit * trial / size)
+            traction = traction + self.shear
+        self.traction = traction
+        # nodal evaluation on the cells next to the region
+        msh.topology.create_connectivity(2, 3)
+        self._cells = mesh.compute_incident_entities(msh.topology, facets.astype(np.int32),
+                                                     2, 3)
+        self._dofs = fem.locate_dofs_topological(W, 2, facets)
+        self._owned = self._dofs[self._dofs < W.dofmap.index_map.size_local]
+        pts = W.element.interpolation_points
+        self._gap_expr = fem.Expression(self.gap, pts)
+        self._p_expr = fem.Expression(self.pressure, pts)
+        self._gap = fem.Function(W)
+        self._p_new = fem.Function(W)
+        if self.lam_t is not None:
+            self._t_expr = fem.Expression(self.shear, Wv.element.interpolation_points)
+            self._t_new = fem.Function(Wv)
+        self._force_forms = [fem.form(-self.traction[i] * self.ds) for i in range(3)]
+        self._area_form = fem.form(ufl.conditional(ufl.gt(self.pressure, 0.0), 1.0, 0.0)
+                                   * self.ds)
+
+    # -- forms -------------------------------------------------------------------------
+    def residual(self, v) -> ufl.Form:
+        """Virtual work of the contact traction (an external force on the body)."""
+        return -ufl.dot(self.traction, v) * self.ds
+
+    # -- load programme ----------------------------------------------------------------
+    def set_load(self, t: float) -> None:
+        """Move the tool to its position at load parameter ``t``."""
+        self.offset.value[:] = self.tool.offset(t)
+
+    # -- augmentation ------------------------------------------------------------------
+    def _reduce_max(self, values: np.ndarray) -> float:
+        local = float(values.max()) if values.size else 0.0
+        return self.comm.allreduce(local, op=MPI.MAX)
+
+    def penetration(self) -> float:
+        """Largest penetration of a surface node into the tool [mm] (0 if none)."""
+        self._gap.interpolate(self._gap_expr, cells0=self._cells)
+        return max(self._reduce_max(-self._gap.x.array[self._owned]), 0.0)
+
+    def violation(self) -> float:
+        """Constraint violation of the current solution [mm].
+
+        Evaluates the tractions the solution produced (the next Uzawa multipliers) and
+        returns the largest change of a multiplier over the penalty: the penetration of a
+        pressed node, a multiplier left on a separated node, or the slip of a sticking one.
+        """
+        self._p_new.interpolate(self._p_expr, cells0=self._cells)
+        own = self._owned
+        change = np.abs(self._p_new.x.array[own] - self.lam_n.x.array[own])
+        worst = self._reduce_max(change) / self.penalty
+        if self.lam_t is not None:
+            self._t_new.interpolate(self._t_expr, cells0=self._cells)
+            new = self._t_new.x.array.reshape(-1, 3)[own]
+            old = self.lam_t.x.array.reshape(-1, 3)[own]
+            worst = max(worst, self._reduce_max(np.linalg.norm(new - old, axis=1))
+                        / self.penalty)
+        return worst
+
+    def augment(self) -> None:
+        """Uzawa update: the multipliers become the tractions of :meth:`violation`."""
+        d = self._dofs
+        self.lam_n.x.array[d] = self._p_new.x.array[d]
+        self.lam_n.x.scatter_forward()
+        if self.lam_t is not None:
+            self.lam_t.x.array.reshape(-1, 3)[d] = self._t_new.x.array.reshape(-1, 3)[d]
+            self.lam_t.x.scatter_forward()
+
+    def commit(self) -> None:
+        """Accept the step.
+
+        The slip of the next step is measured from here, so the tangential multiplier
+        takes the converged shear traction.
+        """
+        if self.lam_t is not None:
+            self._t_new.interpolate(self._t_expr, cells0=self._cells)
+            d = self._dofs
+            self.lam_t.x.array.reshape(-1, 3)[d] = self._t_new.x.array.reshape(-1, 3)[d]
+            self.lam_t.x.scatter_forward()
+            self.u_prev.x.array[:] = self.body.u.x.array
+            self.offset_prev.value[:] = self.offset.value
+
+    def snapshot(self) -> tuple:
+        """Copy of the multipliers (the slip reference is the converged state)."""
+        return (self.lam_n.x.array.copy(),
+                None if self.lam_t is None else self.lam_t.x.array.copy())
+
+    def restore(self, snap: tuple) -> None:
+        """Return to a snapshot."""
+        self.lam_n.x.array[:] = snap[0]
+        if self.lam_t is not None:
+            self.lam_t.x.array[:] = snap[1]
+
+    # -- outputs -----------------------------------------------------------------------
+    def force(self) -> np.ndarray:
+        """Force the body exerts on the tool [N] (a punch pushed down feels +z)."""
+        return np.array([self.comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
+                         for f in self._force_forms])
+
+    def nodal_pressure(self) -> tuple[np.ndarray, np.ndarray]:
+        """Contact pressure [MPa] and reference coordinates of this rank's region nodes."""
+        self._p_new.interpolate(self._p_expr, cells0=self._cells)
+        x = self._p_new.function_space.tabulate_dof_coordinates()
+        return self._p_new.x.array[self._owned].copy(), x[self._owned]
+
+    def contact_area(self) -> float:
+        """Area of the region in contact [mm^2] (nodal, vertex rule)."""
+        return self.comm.allreduce(fem.assemble_scalar(self._area_form), op=MPI.SUM)

@@ -1,0 +1,139 @@
+"""Post-processing shared by the cases.
+
+Integrals of the plastic strain, sections and deformed grids gathered on rank 0 for plots.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem, mesh  # noqa: I001
+from mpi4py import MPI
+
+from forming.model import SolidBody
+
+# DOLFINx -> VTK vertex order of hexahedra and of their quadrilateral faces
+_HEX_TO_VTK = [0, 1, 3, 2, 4, 5, 7, 6]
+_QUAD_TO_POLYGON = [0, 1, 3, 2]
+
+
+class PlasticStrainField:
+    """The volumetric plastic strain as a quadrature function, with its integrals.
+
+    Args:
+        body: A plastic body (its ``plastic`` state is read at each :meth:`update`).
+    """
+
+    def __init__(self, body: SolidBody):
+        if body.plastic is None:
+            raise ValueError(f"body {body.body.name!r} has no plastic state")
+        self.body = body
+        import basix.ufl
+
+        Q = fem.functionspace(body.mesh, basix.ufl.quadrature_element(
+            body.mesh.basix_cell(), value_shape=(), degree=body.quadrature_degree))
+        self.evp = fem.Function(Q, name="evp")
+        self._dofs = Q.dofmap.list[body.cells].ravel()
+
+    def update(self) -> None:
+        """Copy the converged plastic strain into the quadrature function."""
+        self.evp.x.array[self._dofs] = self.body.plastic.evp
+
+    def integral(self, integrand) -> float:
+        """Integral of a UFL expression over the body (reference volume), all ranks."""
+        form = fem.form(integrand * self.body.dx)
+        return self.body.mesh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+
+    def crushed_volume(self, threshold: float = 0.01, where=None) -> float:
+        """Reference volume where the volumetric plastic strain exceeds ``threshold``."""
+        chi = ufl.conditional(ufl.gt(self.evp, threshold), 1.0, 0.0)
+        return self.integral(chi if where is None else chi * where)
+
+    def mean(self, where) -> float:
+        """Volume average of the plastic strain over the indicator ``where`` (UFL)."""
+        vol = self.integral(where)
+        return self.integral(self.evp * where) / vol if vol > 0 else 0.0
+
+
+def _eval_at(u: fem.Function, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    if points.shape[0] == 0:
+        return np.zeros((0, 3))
+    return u.eval(points, cells.astype(np.int32))
+
+
+def section_polygons(body: SolidBody, facet_tags, tag: int, axes: tuple[int, int],
+                     cell_values: np.ndarray) -> tuple[list[np.ndarray], np.ndarray] | None:
+    """Deformed in-plane polygons of the faces tagged ``tag``, with their cells' values.
+
+    The faces are typically a symmetry plane. Gathered on rank 0 (None elsewhere).
+
+    Args:
+        body: The body.
+        facet_tags: Its facet tags.
+        tag: The tag of the section's faces.
+        axes: The two in-plane coordinate axes, e.g. (0, 2).
+        cell_values: One value per owned cell.
+    """
+    msh = body.mesh
+    comm = msh.comm
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    n_owned = msh.topology.index_map(tdim - 1).size_local
+    faces = facet_tags.find(tag)
+    faces = faces[faces < n_owned]
+    polys, vals = [], []
+    if faces.size:
+        coords = mesh.entities_to_geometry(msh, tdim - 1, faces)
+        x = msh.geometry.x[coords]  # (n, k, 3)
+        cells = np.array([f2c.links(f)[0] for f in faces])
+        disp = _eval_at(body.u, x.reshape(-1, 3), np.repeat(cells, x.shape[1]))
+        xd = x + disp.reshape(x.shape)
+        order = _QUAD_TO_POLYGON if x.shape[1] == 4 else list(range(x.shape[1]))
+        n_local_cells = body.n_local_cells
+        for i, c in enumerate(cells):
+            polys.append(xd[i][order][:, list(axes)])
+            vals.append(cell_values[c] if c < n_local_cells else np.nan)
+    gathered = comm.gather((polys, vals), root=0)
+    if comm.rank != 0:
+        return None
+    all_polys = [p for ps, _ in gathered for p in ps]
+    all_vals = np.array([v for _, vs in gathered for v in vs])
+    return all_polys, all_vals
+
+
+def deformed_grid(body: SolidBody, cell_values: dict[str, np.ndarray]):
+    """A pyvista grid of the deformed body (owned cells of every rank) on rank 0.
+
+    Args:
+        body: The body (hexahedra or tetrahedra).
+        cell_values: Arrays of one value per owned cell, attached as cell data.
+    """
+    msh = body.mesh
+    comm = msh.comm
+    tdim = msh.topology.dim
+    n = body.n_local_cells
+    cells = np.arange(n, dtype=np.int32)
+    geo = mesh.entities_to_geometry(msh, tdim, cells)
+    x = msh.geometry.x[geo]
+    disp = _eval_at(body.u, x.reshape(-1, 3), np.repeat(cells, x.shape[1]))
+    xd = (x + disp.reshape(x.shape))
+    gathered = comm.gather((xd, {k: v[:n] for k, v in cell_values.items()}), root=0)
+    if comm.rank != 0:
+        return None
+    import pyvista as pv
+
+    pts = np.concatenate([g[0] for g in gathered])
+    k = pts.shape[1]
+    if k == 8:
+        pts = pts[:, _HEX_TO_VTK]
+        ctype = pv.CellType.HEXAHEDRON
+    else:
+        ctype = pv.CellType.TETRA
+    ncell = pts.shape[0]
+    conn = np.hstack([np.full((ncell, 1), k), np.arange(ncell * k).reshape(ncell, k)]).ravel()
+    grid = pv.UnstructuredGrid(conn, np.full(ncell, ctype, dtype=np.uint8),
+                               pts.reshape(-1, 3))
+    for key in cell_values:
+        grid.cell_data[key] = np.concatenate([g[1][key] for g in gathered])
+    return grid

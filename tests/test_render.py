@@ -1,0 +1,60 @@
+"""Tool surfaces, tool time series, section plots and 3D pictures."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyvista
+
+from forming.contact.render import ToolSeries, render_3d, section_plot, tool_surface
+from forming.contact.shapes import NUMPY, HemisphericalPunch, Plane
+
+PUNCH = HemisphericalPunch((0.0, 0.0, 0.0), 10.0)
+BOUNDS = (-15.0, 15.0, -15.0, 15.0, -2.0, 20.0)
+
+
+def test_tool_surface_is_the_zero_level_set():
+    surface = tool_surface(PUNCH, BOUNDS, 0.5)
+    points = np.asarray(surface.points)
+    assert surface.n_points > 100
+    assert np.abs(PUNCH.distance(points.T, NUMPY)).max() < 0.5
+    assert np.linalg.norm(points, axis=1).min() < 0.5  # near the tip
+
+
+def test_tool_surface_outside_box_and_empty_bounds():
+    assert tool_surface(PUNCH, (-15, 15, -15, 15, -10, -5), 1.0).n_points == 0
+    with pytest.raises(ValueError):
+        tool_surface(PUNCH, (0, 0, -1, 1, -1, 1), 1.0)
+
+
+def test_tool_series_writes_steps_and_collection(tmp_path):
+    series = ToolSeries(tmp_path, [("punch", PUNCH)], BOUNDS, 1.0)
+    series.write(0, 0.0, {"punch": np.zeros(3)})
+    series.write(1, 0.5, {"punch": np.array([0.0, 0.0, -2.0])})
+    pvd = (tmp_path / "tool_punch.pvd").read_text()
+    for step, t in ((0, 0.0), (1, 0.5)):
+        name = f"tools/punch_{step:05d}.vtp"
+        assert f'timestep="{t}" part="0" file="{name}"' in pvd
+        assert (tmp_path / name).is_file()
+    moved = pyvista.read(tmp_path / "tools/punch_00001.vtp")
+    assert moved.bounds[4] == pytest.approx(series.surfaces["punch"].bounds[4] - 2.0)
+
+
+def test_section_plot_writes_png(tmp_path):
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    polygons = [square, square + [1.0, 0.0]]
+    tools = [("platen", Plane((0.0, 0.0, 1.0)), np.zeros(3)),
+             ("punch", HemisphericalPunch((0.0, 0.0, 1.0), 1.0), np.array([0.0, 0.0, 0.1]))]
+    path = section_plot(tmp_path / "section.png", polygons, np.array([1.0, 2.0]), tools,
+                        (1, 0.0), (0, 2), label="stress [MPa]", title="y = 0", mirror=True)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_render_3d_writes_png(tmp_path):
+    grid = pyvista.ImageData(dimensions=(4, 4, 4)).cast_to_unstructured_grid()
+    grid.cell_data["strain"] = np.linspace(0.0, 1.0, grid.n_cells)
+    punch = HemisphericalPunch((1.5, 1.5, 3.5), 1.0)
+    path = render_3d(tmp_path / "view.png", grid, "strain", [(punch, np.zeros(3))],
+                     (-1.0, 4.0, -1.0, 4.0, 2.0, 7.0), 0.2, title="test")
+    assert path.stat().st_size > 1000
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
