@@ -23,7 +23,7 @@ from forming.contact.shapes import Plane, RoundedBox
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
 from forming.output import plot_curves
-from forming.post import PlasticStrainField, deformed_grid, section_polygons
+from forming.post import plastic_field, plastic_strain_pictures
 from forming.run import Job
 from forming.scene import Body, Contact, Displacement, Linear, Scene, Tool
 from forming.solver.implicit import NewtonOptions
@@ -44,6 +44,7 @@ class Params:
     friction: float = TOOL_CORE_FRICTION
     cells: tuple[int, ...] = (12, 12, 8)
     elasticity: Literal["transverse", "isotropic"] = "transverse"
+    curve: str | None = None
     max_step: float = 0.1
     linear_solver: Literal["mumps", "gamg"] = "mumps"
 
@@ -54,7 +55,8 @@ def build(p: Params) -> Job:
     tall = 100.0
     punch = RoundedBox((0.0, 0.0, h + tall), (p.punch / 2, p.punch / 2, tall), p.fillet)
     scene = Scene(
-        name="core_crushing", mesh=mesh, bodies=(Body("core", honeycomb_core(p.elasticity)),),
+        name="core_crushing", mesh=mesh,
+        bodies=(Body("core", honeycomb_core(p.elasticity, curve=p.curve)),),
         displacements=(Displacement("core", "xmin", x=0.0, reaction=False),
                        Displacement("core", "ymin", y=0.0, reaction=False)),
         tools=(Tool("punch", punch, z=Linear(-p.stroke)),
@@ -62,21 +64,11 @@ def build(p: Params) -> Job:
         contacts=(Contact("core", "top", "punch", friction=p.friction),
                   Contact("core", "bottom", "plate", friction=p.friction)),
     )
-    state: dict = {}
-
-    def field(model) -> PlasticStrainField:
-        if "evp" not in state:
-            state["evp"] = PlasticStrainField(model.body)
-        state["evp"].update()
-        return state["evp"]
-
     def probe(model) -> dict[str, float]:
-        evp = field(model)
-        return {"stroke_mm": p.stroke * model.scene.metadata.get("t", 0.0),
-                "crushed_volume_mm3": 4 * evp.crushed_volume()}
+        return {"crushed_volume_mm3": 4 * plastic_field(model.body).crushed_volume()}
 
     def metrics(rec, model) -> dict:
-        evp = field(model)
+        evp = plastic_field(model.body)
         x = ufl.SpatialCoordinate(model.body.mesh)
         outside = ufl.conditional(ufl.Or(ufl.gt(x[0], p.punch / 2), ufl.gt(x[1], p.punch / 2)),
                                   1.0, 0.0)
@@ -118,32 +110,9 @@ def build(p: Params) -> Job:
 
     return Job(scene=scene, steps=StepControl(initial=min(0.05, p.max_step), max=p.max_step),
                newton=NewtonOptions(linear_solver=p.linear_solver, line_search="bt"),
-               probe=None, metrics=metrics, plots=plots,
-               pictures=lambda model, out: _pictures(model, out, state, p))
-
-
-def _pictures(model, out: Path, state: dict, p: Params) -> list[Path]:
-    """Section (y = 0 symmetry plane) and 3D views of the volumetric plastic strain."""
-    from forming.contact.render import render_3d, section_plot
-
-    body = model.body
-    evp = body.cell_average(body.plastic.evp)
-    md = model.scene.mesh
-    sec = section_polygons(body, md.facet_tags, md.names["ymin"][1], (0, 2), evp)
-    grid = deformed_grid(body, {"volumetric_plastic_strain": evp})
-    if model.comm.rank != 0:
-        return []
-    t = 1.0
-    tools = [(tl.name, tl.shape, tl.offset(t)) for tl in model.scene.tools]
-    paths = [section_plot(out / "section_plastic_strain.png", sec[0], sec[1], tools, (1, 0.0),
-                          (0, 2), label="volumetric plastic strain",
-                          title="Core crushing: section y = 0", mirror=True)]
-    paths.append(render_3d(out / "plastic_strain_3d.png", grid, "volumetric_plastic_strain",
-                           [(tl.shape, tl.offset(t)) for tl in model.scene.tools
-                            if tl.name == "punch"],
-                           model.tool_bounds(), model.tool_resolution(),
-                           title="Core crushing"))
-    return paths
+               probe=probe, metrics=metrics, plots=plots,
+               pictures=lambda model, out: plastic_strain_pictures(
+                   model, out, "ymin", "Core crushing", tools_3d=("punch",)))
 
 
 if __name__ == "__main__":

@@ -137,3 +137,47 @@ def deformed_grid(body: SolidBody, cell_values: dict[str, np.ndarray]):
     for key in cell_values:
         grid.cell_data[key] = np.concatenate([g[1][key] for g in gathered])
     return grid
+
+
+_FIELDS: dict[int, PlasticStrainField] = {}
+
+
+def plastic_field(body: SolidBody) -> PlasticStrainField:
+    """The body's plastic-strain field (built once per body), updated to its state."""
+    field = _FIELDS.get(id(body))
+    if field is None or field.body is not body:
+        field = _FIELDS[id(body)] = PlasticStrainField(body)
+    field.update()
+    return field
+
+
+def plastic_strain_pictures(model, out, section: str, title: str, tools_3d=None) -> list:
+    """Section and 3D PNGs of the final volumetric plastic strain, with the tools drawn.
+
+    The section is the symmetry face ``section``, mirrored. Collective: the files are
+    written on rank 0 and returned there (empty elsewhere).
+    """
+    from pathlib import Path
+
+    from forming.contact.render import render_3d, section_plot
+
+    body = model.body
+    evp = body.cell_average(body.plastic.evp)
+    md = model.scene.mesh
+    axis = 1 if section == "ymin" else 0
+    in_plane = (0, 2) if axis == 1 else (1, 2)
+    sec = section_polygons(body, md.facet_tags, md.names[section][1], in_plane, evp)
+    grid = deformed_grid(body, {"volumetric_plastic_strain": evp})
+    if model.comm.rank != 0:
+        return []
+    out = Path(out)
+    tools = [(tl.name, tl.shape, tl.offset(1.0)) for tl in model.scene.tools]
+    shown = [(tl.shape, tl.offset(1.0)) for tl in model.scene.tools
+             if tools_3d is None or tl.name in tools_3d]
+    return [
+        section_plot(out / "section_plastic_strain.png", sec[0], sec[1], tools,
+                     (axis, 0.0), in_plane, label="volumetric plastic strain",
+                     title=f"{title}: section {'xy'[axis]} = 0", mirror=True),
+        render_3d(out / "plastic_strain_3d.png", grid, "volumetric_plastic_strain", shown,
+                  model.tool_bounds(), model.tool_resolution(), title=title),
+    ]
