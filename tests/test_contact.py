@@ -57,7 +57,7 @@ def test_hertz_force_indentation(tmp_path):
     """Rigid sphere on an elastic half-space (quarter model): F = 4/3 E* sqrt(R) d^1.5.
 
     The block is large (400 mm, 110 a) because a rigid base at depth H stiffens the
-    response by O(a/H): 50 mm gave +6% on every mesh. The fitted coefficient is within
+    response by O(a/H): 50 mm gave +4.4% on every mesh. The fitted coefficient is within
     5% of Hertz's; a larger error would mean wrong contact forces (nodal weights,
     penalty consistency). Refinement: 1.027 here, 1.017 on 18^3 cells (docs/validation.md).
     """
