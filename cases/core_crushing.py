@@ -22,8 +22,12 @@ from forming.case import main
 from forming.contact.shapes import Plane, RoundedBox
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
-from forming.output import plot_curves
-from forming.post import plastic_field, plastic_strain_pictures
+from forming.post import (
+    contact_metrics,
+    plastic_field,
+    plastic_strain_pictures,
+    punch_force_plot,
+)
 from forming.run import Job
 from forming.scene import Body, Contact, Displacement, Linear, Scene, Tool
 from forming.solver.implicit import NewtonOptions
@@ -98,15 +102,10 @@ def build(p: Params) -> Job:
             "mean_plastic_strain_under_punch": evp.mean(under),
             "mean_plastic_strain_outside_punch": evp.mean(outside),
             "edge_draw_in_mm": draw_in,
-            "max_penetration_mm": float(rec.column("max_penetration_mm").max()),
-            "penetration_tolerance_mm": min(c.tolerance for c in model.contacts),
-        }
+        } | contact_metrics(rec, model)
 
     def plots(rec, out: Path) -> list[Path]:
-        stroke = rec.column("t") * p.stroke
-        return [plot_curves(out / "punch_force.png",
-                            [(stroke, 4 * rec.column("force_punch_z_N"), "punch force", "o-")],
-                            "stroke [mm]", "punch force [N]", "Square-punch crushing")]
+        return punch_force_plot(rec, out, p.stroke, "Square-punch crushing")
 
     return Job(scene=scene, steps=StepControl(initial=min(0.05, p.max_step), max=p.max_step),
                newton=NewtonOptions(linear_solver=p.linear_solver, line_search="bt"),

@@ -28,8 +28,12 @@ from forming.case import main
 from forming.contact.shapes import AnnularPlate, HemisphericalPunch
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
-from forming.output import plot_curves
-from forming.post import plastic_field, plastic_strain_pictures
+from forming.post import (
+    contact_metrics,
+    plastic_field,
+    plastic_strain_pictures,
+    punch_force_plot,
+)
 from forming.run import Job
 from forming.scene import Body, Contact, Displacement, Linear, Scene, Tool
 from forming.solver.implicit import NewtonOptions
@@ -55,6 +59,7 @@ class Params:
     elasticity: Literal["transverse", "isotropic"] = "isotropic"
     curve: str | None = None
     max_step: float = 0.02
+    min_step: float = 1e-4
     linear_solver: Literal["mumps", "gamg"] = "mumps"
 
 
@@ -115,19 +120,14 @@ def build(p: Params) -> Job:
                                                    op=MPI.MIN),
             "edge_lift_max_mm": edge_lift,
             "punch_gap_max_mm": gap_max,
-            "max_penetration_mm": float(rec.column("max_penetration_mm").max()),
-            "penetration_tolerance_mm": min(c.tolerance for c in model.contacts),
-        }
+        } | contact_metrics(rec, model)
 
     def plots(rec, out: Path) -> list[Path]:
-        stroke = rec.column("t") * p.stroke
-        return [plot_curves(out / "punch_force.png",
-                            [(stroke, 4 * rec.column("force_punch_z_N"), "punch force", "o-")],
-                            "stroke [mm]", "punch force [N]",
-                            "Hemisphere forming" + (" with blank holder" if p.blank_holder
-                                                    else ""))]
+        title = "Hemisphere forming" + (" with blank holder" if p.blank_holder else "")
+        return punch_force_plot(rec, out, p.stroke, title)
 
-    return Job(scene=scene, steps=StepControl(initial=min(0.02, p.max_step), max=p.max_step),
+    return Job(scene=scene, steps=StepControl(initial=min(0.02, p.max_step), max=p.max_step,
+                                 min=min(p.min_step, p.max_step)),
                newton=NewtonOptions(linear_solver=p.linear_solver, line_search="bt"),
                probe=probe, metrics=metrics, plots=plots, field_every=5,
                pictures=lambda model, out: plastic_strain_pictures(

@@ -181,3 +181,23 @@ def plastic_strain_pictures(model, out, section: str, title: str, tools_3d=None)
         render_3d(out / "plastic_strain_3d.png", grid, "volumetric_plastic_strain", shown,
                   model.tool_bounds(), model.tool_resolution(), title=title),
     ]
+
+
+def contact_metrics(rec, model) -> dict[str, float]:
+    """Largest penetration over the run and the tightest tolerance of the scene's pairs."""
+    return {
+        "max_penetration_mm": float(rec.column("max_penetration_mm").max()),
+        "penetration_tolerance_mm": min(c.tolerance for c in model.contacts),
+    }
+
+
+def punch_force_plot(rec, out, stroke: float, title: str, copies: int = 4) -> list:
+    """PNG of the punch force against its stroke (``copies``: symmetry multiplier)."""
+    from pathlib import Path
+
+    from forming.output import plot_curves
+
+    travel = rec.column("t") * stroke
+    force = copies * rec.column("force_punch_z_N")
+    return [plot_curves(Path(out) / "punch_force.png", [(travel, force, "punch force", "o-")],
+                        "stroke [mm]", "punch force [N]", title)]

@@ -150,3 +150,47 @@ def test_flat_punch_pressure_is_uniform(tmp_path):
     # Hencky, uniaxial stress: Cauchy = E ln(stretch) / stretch, stretch = 1 - (0.4 - g) / H
     stretch = 1 - (0.4 - c.penetration()) / H
     assert mean == pytest.approx(-E * np.log(stretch) / stretch, rel=1e-3)
+
+
+def _hardening_curve(path):
+    """The shipped curve's linear part and densification, with a rising plateau instead of
+    the peak (the implicit solver does not yet follow the softening: issue #3)."""
+    pts = [(0.0, 0.0), (0.02, 0.30)]
+    pts += [(e, 0.30 + 0.05 * (e - 0.02) / 0.73) for e in np.linspace(0.05, 0.75, 15)]
+    pts += [(e, 0.35 + 3.65 * ((e - 0.75) / 0.15) ** 4.25) for e in np.linspace(0.76, 0.9, 15)]
+    path.write_text("e,s\n" + "".join(f"{e:.6f},{s:.6f}\n" for e, s in pts))
+    return path
+
+
+def test_square_punch_crushing_runs_to_full_stroke(tmp_path):
+    """core_crushing (coarse, hardening plateau): completes the 10 mm stroke with the
+    penetration under tolerance, crushing under the punch and none outside it."""
+    from forming.case import run_case
+
+    curve = _hardening_curve(tmp_path / "curve.csv")
+    s = run_case("core_crushing", tmp_path / "out",
+                 ["cells=4,4,2", "max_step=0.1", f"curve={curve}"])
+    m = s["metrics"]
+    assert s["status"] == "completed"
+    assert m["max_penetration_mm"] <= m["penetration_tolerance_mm"]
+    assert m["punch_force_max_N"] > 0
+    assert m["crushed_volume_mm3"] > 0
+    assert m["mean_plastic_strain_under_punch"] > 0.3  # 10 mm of 20 mm crushed
+    assert abs(m["mean_plastic_strain_outside_punch"]) < 0.1 * m[
+        "mean_plastic_strain_under_punch"]
+    for name in ("section_plastic_strain.png", "plastic_strain_3d.png", "tool_punch.pvd"):
+        assert (tmp_path / "out" / name).is_file()
+
+
+@pytest.mark.slow
+def test_hemisphere_without_holder_full_stroke(tmp_path):
+    """The hemisphere without blank holder (coarse, isotropic core) reaches 50 mm, with
+    the edge lifting (bending) and little crushing (paper, Fig. 11)."""
+    from forming.case import run_case
+
+    s = run_case("hemisphere", tmp_path, ["cells=12,12,3"])
+    m = s["metrics"]
+    assert s["status"] == "completed"
+    assert m["edge_lift_max_mm"] > 5.0
+    assert m["crushing_strain_max"] < 0.1
+    assert m["max_penetration_mm"] <= m["penetration_tolerance_mm"]
