@@ -20,18 +20,11 @@ The tangent ``D = dS/dE_GL`` is computed by central perturbation of the whole
 stress update (Miehe 1996, CMAME 134), which gives the algorithmic (consistent)
 tangent up to an O(h^2) truncation error (about 1e-10 relative; larger only where
 +/-h straddles the yield surface).
-
-Performance: a kernel call allocates one set of scratch arrays (:class:`Work`) and
-every point update writes into it, so the inner functions allocate nothing. Their
-floating-point operations are those of the plain formulation, in the same order:
-the finite-difference tangent divides round-off in ``S`` by ``h``, so even a
-reordered sum would change ``D`` visibly.
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -50,143 +43,72 @@ MEASURE_BIOT = 1
 MEASURE_BIOT_HENCKY = 2  # Biot for principal stretches > 1, Hencky below (C1 at 1)
 
 
-class Work(NamedTuple):
-    """Scratch arrays of the point updates, allocated once per kernel call.
-
-    Attributes:
-        cm: (3, 3) right Cauchy-Green tensor of the current point.
-        cp: (3, 3) perturbed right Cauchy-Green tensor (tangent).
-        jac: (3, 3) Jacobi iterate of the eigen solver.
-        q: (3, 3) eigenvectors of C (columns).
-        c: (3,) eigenvalues of C.
-        e_eig: (6,) strain in the eigenframe.
-        s_fac: (6,) S-scalings ``2 theta_ab``.
-        k_fac: (6,) sigma-scalings ``kappa_ab``.
-        rot: (6, 6) Mandel rotation of the eigenframe.
-        cr: (6, 6) ``cel @ rot``.
-        c_eig: (6, 6) elastic stiffness in the eigenframe, ``rot.T @ cel @ rot``.
-        ep_eig: (6,) plastic strain in the eigenframe.
-        vec: (6,) operand of a rotation or matrix-vector product.
-        t_tr: (6,) trial stress T in the eigenframe.
-        t: (6,) stress T after a return of trial size ``mu``.
-        sig: (6,) rotated Cauchy stress in the eigenframe.
-        lu: (6, 6) matrix being eliminated by :func:`_solve6`.
-        s: (6,) stress S at the point.
-        sp: (6,) stress S at ``C + dC``.
-        sm: (6,) stress S at ``C - dC``.
-        ep_new: (6,) new plastic strain (global).
-    """
-
-    cm: np.ndarray
-    cp: np.ndarray
-    jac: np.ndarray
-    q: np.ndarray
-    c: np.ndarray
-    e_eig: np.ndarray
-    s_fac: np.ndarray
-    k_fac: np.ndarray
-    rot: np.ndarray
-    cr: np.ndarray
-    c_eig: np.ndarray
-    ep_eig: np.ndarray
-    vec: np.ndarray
-    t_tr: np.ndarray
-    t: np.ndarray
-    sig: np.ndarray
-    lu: np.ndarray
-    s: np.ndarray
-    sp: np.ndarray
-    sm: np.ndarray
-    ep_new: np.ndarray
+@numba.njit(cache=True)
+def _dot(a, b):
+    s = 0.0
+    for i in range(a.shape[0]):
+        s += a[i] * b[i]
+    return s
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _new_work():
-    """Allocate the scratch arrays of one kernel call.
-
-    Returns:
-        A :class:`Work` of zero-filled arrays.
-    """
-    return Work(np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((3, 3)),
-                np.zeros(3), np.zeros(6), np.zeros(6), np.zeros(6), np.zeros((6, 6)),
-                np.zeros((6, 6)), np.zeros((6, 6)), np.zeros(6), np.zeros(6), np.zeros(6),
-                np.zeros(6), np.zeros(6), np.zeros((6, 6)), np.zeros(6), np.zeros(6),
-                np.zeros(6), np.zeros(6))
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _mv6(a, x, y):
-    """Write ``a @ x`` into ``y`` for a 6x6 matrix (no BLAS).
-
-    Args:
-        a: (6, 6) matrix.
-        x: (6,) vector.
-        y: (6,) output, distinct from ``x``.
-    """
-    for i in range(6):
+@numba.njit(cache=True)
+def _mv(a, x):
+    """``a @ x`` for a small dense matrix (no BLAS)."""
+    y = np.zeros(a.shape[0])
+    for i in range(a.shape[0]):
         s = 0.0
-        for j in range(6):
+        for j in range(a.shape[1]):
             s += a[i, j] * x[j]
         y[i] = s
+    return y
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _mtv6(a, x, y):
-    """Write ``a.T @ x`` into ``y`` for a 6x6 matrix.
-
-    Args:
-        a: (6, 6) matrix.
-        x: (6,) vector.
-        y: (6,) output, distinct from ``x``.
-    """
-    for j in range(6):
+@numba.njit(cache=True)
+def _mtv(a, x):
+    """``a.T @ x``."""
+    y = np.zeros(a.shape[1])
+    for j in range(a.shape[1]):
         s = 0.0
-        for i in range(6):
+        for i in range(a.shape[0]):
             s += a[i, j] * x[i]
         y[j] = s
+    return y
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _rtcr(r, c, cr, out, ncol):
-    """Write the first ``ncol`` columns of ``r.T @ c @ r`` into ``out`` (6x6 matrices).
-
-    Args:
-        r: (6, 6) rotation.
-        c: (6, 6) matrix to rotate.
-        cr: (6, 6) scratch; its first ``ncol`` columns receive ``c @ r``.
-        out: (6, 6) output; columns ``ncol`` and beyond are left as they are.
-        ncol: Number of columns wanted (the elastic update needs only 3).
-    """
-    for k in range(6):
-        for j in range(ncol):
-            s = 0.0
-            for m in range(6):
-                s += c[k, m] * r[m, j]
-            cr[k, j] = s
-    for i in range(6):
-        for j in range(ncol):
-            s = 0.0
-            for k in range(6):
-                s += r[k, i] * cr[k, j]
-            out[i, j] = s
+@numba.njit(cache=True)
+def _mm(a, b):
+    """``a @ b``."""
+    c = np.zeros((a.shape[0], b.shape[1]))
+    for i in range(a.shape[0]):
+        for k in range(a.shape[1]):
+            aik = a[i, k]
+            for j in range(b.shape[1]):
+                c[i, j] += aik * b[k, j]
+    return c
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def eig_sym3(a, m, q, w):
+@numba.njit(cache=True)
+def _rtcr(r, c):
+    """``r.T @ c @ r``."""
+    cr = _mm(c, r)
+    out = np.zeros((r.shape[1], r.shape[1]))
+    for i in range(r.shape[1]):
+        for k in range(r.shape[0]):
+            rki = r[k, i]
+            for j in range(r.shape[1]):
+                out[i, j] += rki * cr[k, j]
+    return out
+
+
+@numba.njit(cache=True)
+def eig_sym3(a):
     """Eigen-decomposition of a symmetric 3x3 matrix by cyclic Jacobi rotations.
 
+    Returns ``(w, q)`` with eigenvalues ``w`` and eigenvectors as columns of ``q``.
     Robust for repeated eigenvalues (the undeformed state has three).
-
-    Args:
-        a: (3, 3) symmetric matrix (not modified).
-        m: (3, 3) scratch for the Jacobi iterate.
-        q: (3, 3) output: eigenvectors as columns.
-        w: (3,) output: eigenvalues.
     """
-    for i in range(3):
-        for j in range(3):
-            m[i, j] = a[i, j]
-            q[i, j] = 1.0 if i == j else 0.0
+    m = a.copy()
+    q = np.eye(3)
     for _sweep in range(50):
         off = m[0, 1] ** 2 + m[0, 2] ** 2 + m[1, 2] ** 2
         scale = m[0, 0] ** 2 + m[1, 1] ** 2 + m[2, 2] ** 2
@@ -216,92 +138,51 @@ def eig_sym3(a, m, q, w):
                     qkr = q[k, r]
                     q[k, p] = c * qkp - s * qkr
                     q[k, r] = s * qkp + c * qkr
+    w = np.empty(3)
     for i in range(3):
         w[i] = m[i, i]
+    return w, q
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _mandel_rotation_into(q, r):
-    """Write the Mandel rotation of ``q`` into ``r`` (see :func:`mandel_rotation`).
-
-    Args:
-        q: (3, 3) orthogonal matrix.
-        r: (6, 6) output.
-    """
+@numba.njit(cache=True)
+def mandel_rotation(q):
+    """6x6 matrix R with ``mandel(q A q^T) = R @ mandel(A)`` (orthogonal)."""
+    r = np.empty((6, 6))
     for j in range(6):
         a = _MI[j]
         b = _MJ[j]
+        fac = 1.0 if a == b else 1.0 / SQRT2
         for i in range(6):
             k = _MI[i]
             l = _MJ[i]  # noqa: E741
-            # (q B q^T)_kl with B = (e_a e_b^T + e_b e_a^T) / sqrt2 (a != b) or e_a e_a^T
+            # (q B q^T)_kl with B = fac (e_a e_b^T + e_b e_a^T) (a != b) or e_a e_a^T
             if a == b:
                 v = q[k, a] * q[l, a]
             else:
-                v = (1.0 / SQRT2) * (q[k, a] * q[l, b] + q[k, b] * q[l, a])
+                v = fac * (q[k, a] * q[l, b] + q[k, b] * q[l, a])
             r[i, j] = v if k == l else SQRT2 * v
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def mandel_rotation(q):
-    """6x6 matrix R with ``mandel(q A q^T) = R @ mandel(A)`` (orthogonal).
-
-    Args:
-        q: (3, 3) orthogonal matrix.
-
-    Returns:
-        The (6, 6) Mandel rotation.
-    """
-    r = np.empty((6, 6))
-    _mandel_rotation_into(q, r)
     return r
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True)
 def strain_f(c, measure):
-    """Principal generalised strain for a principal value ``c`` of C.
-
-    Args:
-        c: Eigenvalue of C (positive).
-        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
-
-    Returns:
-        ``f(c)``.
-    """
+    """Principal generalised strain for a principal value ``c`` of C."""
     if measure == MEASURE_HENCKY or (measure == MEASURE_BIOT_HENCKY and c < 1.0):
         return 0.5 * math.log(c)
     return math.sqrt(c) - 1.0
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True)
 def _theta_hencky(ca, cb):
-    """Divided difference of ``f(c) = ln(c)/2``, by a series for close arguments.
-
-    Args:
-        ca: First eigenvalue of C.
-        cb: Second eigenvalue of C.
-
-    Returns:
-        ``(f(ca) - f(cb)) / (ca - cb)``.
-    """
     x = ca / cb - 1.0
     if abs(x) < 1e-5:
         return (1.0 - 0.5 * x + x * x / 3.0 - 0.25 * x * x * x) / (2.0 * cb)
     return math.log1p(x) / x / (2.0 * cb)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True)
 def strain_theta(ca, cb, measure):
-    """Divided difference ``(f(ca) - f(cb)) / (ca - cb)``, ``f'(ca)`` in the limit.
-
-    Args:
-        ca: First eigenvalue of C.
-        cb: Second eigenvalue of C.
-        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
-
-    Returns:
-        ``theta_ab``.
-    """
+    """Divided difference ``(f(ca) - f(cb)) / (ca - cb)``, ``f'(ca)`` in the limit."""
     if measure == MEASURE_BIOT:
         return 1.0 / (math.sqrt(ca) + math.sqrt(cb))
     if measure == MEASURE_HENCKY:
@@ -315,92 +196,68 @@ def strain_theta(ca, cb, measure):
     return (strain_f(ca, measure) - strain_f(cb, measure)) / (ca - cb)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _kinematics(cmat, measure, w):
-    """Eigen-frame kinematics of C: strain, rotation, S- and sigma-scalings.
-
-    Args:
-        cmat: (3, 3) right Cauchy-Green tensor.
-        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
-        w: Work arrays; fills ``q``, ``c``, ``e_eig``, ``s_fac`` and ``k_fac``
-            (only ``q`` and ``c`` if C is not positive definite).
-
-    Returns:
-        Whether C is positive definite.
-    """
-    c = w.c
-    eig_sym3(cmat, w.jac, w.q, c)
-    if not (c[0] > 0.0 and c[1] > 0.0 and c[2] > 0.0):
-        return False
+@numba.njit(cache=True)
+def _kinematics(cmat, measure):
+    """Eigen-frame kinematics of C: strain, rotation, S- and sigma-scalings."""
+    c, q = eig_sym3(cmat)
+    ok = c[0] > 0.0 and c[1] > 0.0 and c[2] > 0.0
+    e_eig = np.zeros(6)
+    s_fac = np.zeros(6)
+    k_fac = np.zeros(6)
+    if not ok:
+        return ok, q, e_eig, s_fac, k_fac
     jac = math.sqrt(c[0] * c[1] * c[2])
     for i in range(3):
-        w.e_eig[i] = strain_f(c[i], measure)
-        w.e_eig[i + 3] = 0.0
+        e_eig[i] = strain_f(c[i], measure)
     for i in range(6):
         ca = c[_MI[i]]
         cb = c[_MJ[i]]
         th = strain_theta(ca, cb, measure)
-        w.s_fac[i] = 2.0 * th
-        w.k_fac[i] = 2.0 * math.sqrt(ca * cb) * th / jac
-    return True
+        s_fac[i] = 2.0 * th
+        k_fac[i] = 2.0 * math.sqrt(ca * cb) * th / jac
+    return ok, q, e_eig, s_fac, k_fac
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _solve6(m, x):
-    """Solve ``m y = x`` in place by Gaussian elimination with partial pivoting (6x6).
-
-    Args:
-        m: (6, 6) matrix, overwritten by its elimination.
-        x: (6,) right-hand side, overwritten by the solution (by the partly
-            eliminated right-hand side if ``m`` is singular).
-
-    Returns:
-        False if a zero pivot was met.
-    """
-    for k in range(6):
+@numba.njit(cache=True)
+def _solve_dense(a, b):
+    """Solve ``a x = b`` by Gaussian elimination with partial pivoting (small n)."""
+    n = b.shape[0]
+    m = a.copy()
+    x = b.copy()
+    for k in range(n):
         p = k
         best = abs(m[k, k])
-        for i in range(k + 1, 6):
+        for i in range(k + 1, n):
             if abs(m[i, k]) > best:
                 best = abs(m[i, k])
                 p = i
         if best == 0.0:
-            return False
+            return x, False
         if p != k:
-            for j in range(6):
+            for j in range(n):
                 tmp = m[k, j]
                 m[k, j] = m[p, j]
                 m[p, j] = tmp
             tmp = x[k]
             x[k] = x[p]
             x[p] = tmp
-        for i in range(k + 1, 6):
+        for i in range(k + 1, n):
             f = m[i, k] / m[k, k]
             if f != 0.0:
-                for j in range(k, 6):
+                for j in range(k, n):
                     m[i, j] -= f * m[k, j]
                 x[i] -= f * x[k]
-    for k in range(5, -1, -1):
+    for k in range(n - 1, -1, -1):
         s = x[k]
-        for j in range(k + 1, 6):
+        for j in range(k + 1, n):
             s -= m[k, j] * x[j]
         x[k] = s / m[k, k]
-    return True
+    return x, True
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True)
 def hermite_eval(x, xs, ys, ds):
-    """Piecewise cubic Hermite value and slope; constant below ``xs[0]``, linear above.
-
-    Args:
-        x: Abscissa.
-        xs: Table abscissae (increasing).
-        ys: Table values.
-        ds: Table slopes.
-
-    Returns:
-        (value, slope) at ``x``.
-    """
+    """Piecewise cubic Hermite value and slope; constant below ``xs[0]``, linear above."""
     n = xs.shape[0]
     if x <= xs[0]:
         return ys[0], 0.0
@@ -431,19 +288,9 @@ def hermite_eval(x, xs, ys, ds):
     return y, dy
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
+@numba.njit(cache=True)
 def _foam_yield(sig, pc, pt, alpha):
-    """Crushable-foam yield value for a rotated Cauchy stress, p > 0 in compression.
-
-    Args:
-        sig: (6,) rotated Cauchy stress (Mandel).
-        pc: Hydrostatic compression strength.
-        pt: Hydrostatic tension strength.
-        alpha: Shape factor of the yield ellipse.
-
-    Returns:
-        The yield value (positive outside the surface).
-    """
+    """Crushable-foam yield value for a rotated Cauchy stress (Mandel), p > 0 in compression."""
     tr = sig[0] + sig[1] + sig[2]
     p = -tr / 3.0
     q2 = 0.0
@@ -455,242 +302,139 @@ def _foam_yield(sig, pc, pt, alpha):
     return math.sqrt(q2 + alpha * alpha * (p - p0) ** 2) - 0.5 * alpha * (pc + pt)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _rm_phi(mu, w, evp_n, xs, ys, ds, pt, alpha):
-    """Yield value after a return of size ``mu``.
+@numba.njit(cache=True)
+def _rm_phi(mu, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t_out):
+    """Yield value after a return of size ``mu``; fills ``t_out`` with the stress.
 
     The flow is radial in the rotated Cauchy stress (``dg m = mu sigma``), so for a
     given ``mu`` the update ``T = T_tr - mu C K T`` is linear:
     ``T = (I + mu C K)^-1 T_tr`` with ``K = diag(kappa)``.
-
-    Args:
-        mu: Return size.
-        w: Work arrays; reads ``c_eig``, ``k_fac``, ``t_tr``, fills ``t`` (the
-            stress T), ``sig`` and ``lu``.
-        evp_n: Converged volumetric plastic strain.
-        xs: Hardening table abscissae.
-        ys: Hardening table values.
-        ds: Hardening table slopes.
-        pt: Hydrostatic tension strength.
-        alpha: Shape factor of the yield ellipse.
-
-    Returns:
-        The yield value at the returned stress and hardened ``pc``.
     """
-    a = w.lu
-    t = w.t
-    sig = w.sig
+    a = np.empty((6, 6))
     for i in range(6):
         for j in range(6):
-            a[i, j] = mu * w.c_eig[i, j] * w.k_fac[j]
+            a[i, j] = mu * c_eig[i, j] * k_fac[j]
         a[i, i] += 1.0
-        t[i] = w.t_tr[i]
-    _solve6(a, t)
+    t, _ok = _solve_dense(a, t_tr)
     for i in range(6):
-        sig[i] = w.k_fac[i] * t[i]
+        t_out[i] = t[i]
+    sig = k_fac * t
     evp = evp_n - mu * (sig[0] + sig[1] + sig[2])
     pc, _h = hermite_eval(evp, xs, ys, ds)
     return _foam_yield(sig, pc, pt, alpha)
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _return_mapping(f_tr, tol, w, evp_n, xs, ys, ds, pt, alpha):
-    """Smallest root ``mu > 0`` of ``phi(mu) = f(sigma(mu), pc(evp(mu)))``.
+@numba.njit(cache=True)
+def _elastic_update(cmat, cel, measure):
+    """Elastic stress at one point: returns (status, S (Mandel, global))."""
+    s_out = np.zeros(6)
+    ok, q, e_eig, s_fac, _k = _kinematics(cmat, measure)
+    if not ok:
+        return STATUS_INVERTED, s_out
+    rot = mandel_rotation(q)
+    t = _mv(_rtcr(rot, cel), e_eig)
+    return STATUS_OK, _mv(rot, s_fac * t)
 
-    Bracketed by geometric search from ``phi(0) = f_tr > 0``, then Illinois
-    regula falsi.
 
-    Args:
-        f_tr: Trial yield value (positive).
-        tol: Tolerance on ``|phi|``.
-        w: Work arrays (see :func:`_rm_phi`); on convergence ``t`` and ``sig``
-            hold the returned state.
-        evp_n: Converged volumetric plastic strain.
-        xs: Hardening table abscissae.
-        ys: Hardening table values.
-        ds: Hardening table slopes.
-        pt: Hydrostatic tension strength.
-        alpha: Shape factor of the yield ellipse.
+@numba.njit(cache=True)
+def _foam_update(cmat, ep_n, evp_n, cel, measure, props, xs, ys, ds, ep_new):
+    """Crushable-foam stress update at one point: returns (status, S, evp_new).
 
-    Returns:
-        (converged, mu).
+    ``ep_new`` receives the new plastic strain (global Mandel).
     """
+    s_out = np.zeros(6)
+    ok, q, e_eig, s_fac, k_fac = _kinematics(cmat, measure)
+    if not ok:
+        return STATUS_INVERTED, s_out, evp_n
+    rot = mandel_rotation(q)
+    c_eig = _rtcr(rot, cel)
+    ep_eig = _mtv(rot, ep_n)
+    t_tr = _mv(c_eig, e_eig - ep_eig)
+    pt = props[1]
+    alpha = props[0]
+    pc_n, _h = hermite_eval(evp_n, xs, ys, ds)
+    sig = k_fac * t_tr
+    f_tr = _foam_yield(sig, pc_n, pt, alpha)
+    scale = pc_n + pt
+    if f_tr <= 1e-12 * scale:
+        s_out = _mv(rot, s_fac * t_tr)
+        for i in range(6):
+            ep_new[i] = ep_n[i]
+        return STATUS_OK, s_out, evp_n
+    # Return mapping: the smallest root mu > 0 of phi(mu) = f(sigma(mu), pc(evp(mu))),
+    # bracketed by geometric search from phi(0) > 0, then Illinois regula falsi.
+    t = np.zeros(6)
     cmax = 0.0
     for i in range(6):
-        cmax = max(cmax, w.c_eig[i, i] * w.k_fac[i])
+        cmax = max(cmax, c_eig[i, i] * k_fac[i])
+    tol = 1e-13 * scale
     mu_lo, f_lo = 0.0, f_tr
     mu_hi = 1e-4 / cmax
-    f_hi = _rm_phi(mu_hi, w, evp_n, xs, ys, ds, pt, alpha)
+    f_hi = _rm_phi(mu_hi, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t)
+    converged = False
     for _b in range(80):
         if f_hi <= 0.0:
             break
         mu_lo, f_lo = mu_hi, f_hi
         mu_hi *= 2.0
-        f_hi = _rm_phi(mu_hi, w, evp_n, xs, ys, ds, pt, alpha)
-    if f_hi > 0.0:
-        return False, mu_hi
-    side = 0
-    for _it in range(200):
-        mu = (mu_lo * f_hi - mu_hi * f_lo) / (f_hi - f_lo)
-        if not (mu_lo < mu < mu_hi):
-            mu = 0.5 * (mu_lo + mu_hi)
-        fm = _rm_phi(mu, w, evp_n, xs, ys, ds, pt, alpha)
-        if abs(fm) < tol or (mu_hi - mu_lo) < 1e-15 * mu_hi:
-            return True, mu
-        if fm > 0.0:
-            mu_lo, f_lo = mu, fm
-            if side == 1:
-                f_hi *= 0.5
-            side = 1
-        else:
-            mu_hi, f_hi = mu, fm
-            if side == -1:
-                f_lo *= 0.5
-            side = -1
-    return False, mu_hi
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _rotate_back(w, t, s_out):
-    """Write the global stress ``S = R (s_fac * T)`` into ``s_out``.
-
-    Args:
-        w: Work arrays (reads ``rot`` and ``s_fac``, uses ``vec``).
-        t: (6,) stress T in the eigenframe.
-        s_out: (6,) output.
-    """
-    for i in range(6):
-        w.vec[i] = w.s_fac[i] * t[i]
-    _mv6(w.rot, w.vec, s_out)
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _elastic_update(cmat, cel, measure, w, s_out):
-    """Elastic stress at one point.
-
-    Args:
-        cmat: (3, 3) right Cauchy-Green tensor.
-        cel: (6, 6) Mandel elastic stiffness in the material frame.
-        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
-        w: Work arrays.
-        s_out: (6,) output: S (Mandel, global), zero on failure.
-
-    Returns:
-        The status.
-    """
-    if not _kinematics(cmat, measure, w):
-        s_out[:] = 0.0
-        return STATUS_INVERTED
-    _mandel_rotation_into(w.q, w.rot)
-    # The eigenframe strain has no shear, so T needs the first 3 columns only.
-    _rtcr(w.rot, cel, w.cr, w.c_eig, 3)
-    for i in range(6):
-        s = 0.0
-        for j in range(3):
-            s += w.c_eig[i, j] * w.e_eig[j]
-        w.t[i] = s
-    _rotate_back(w, w.t, s_out)
-    return STATUS_OK
-
-
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _foam_update(cmat, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, w, s_out, ep_new):
-    """Crushable-foam stress update at one point.
-
-    Args:
-        cmat: (3, 3) right Cauchy-Green tensor.
-        ep_n: (6,) converged plastic strain (global Mandel).
-        evp_n: Converged volumetric plastic strain.
-        pc_n: Compression strength at ``evp_n``.
-        cel: (6, 6) Mandel elastic stiffness in the material frame.
-        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
-        props: [alpha, pt].
-        xs: Hardening table abscissae.
-        ys: Hardening table values.
-        ds: Hardening table slopes.
-        w: Work arrays.
-        s_out: (6,) output: S (Mandel, global), zero on failure.
-        ep_new: (6,) output: new plastic strain (global Mandel), set on success.
-
-    Returns:
-        (status, new volumetric plastic strain).
-    """
-    if not _kinematics(cmat, measure, w):
-        s_out[:] = 0.0
-        return STATUS_INVERTED, evp_n
-    _mandel_rotation_into(w.q, w.rot)
-    _rtcr(w.rot, cel, w.cr, w.c_eig, 6)
-    _mtv6(w.rot, ep_n, w.ep_eig)
-    for i in range(6):
-        w.vec[i] = w.e_eig[i] - w.ep_eig[i]
-    _mv6(w.c_eig, w.vec, w.t_tr)
-    alpha = props[0]
-    pt = props[1]
-    for i in range(6):
-        w.sig[i] = w.k_fac[i] * w.t_tr[i]
-    f_tr = _foam_yield(w.sig, pc_n, pt, alpha)
-    scale = pc_n + pt
-    if f_tr <= 1e-12 * scale:
-        _rotate_back(w, w.t_tr, s_out)
-        ep_new[:] = ep_n
-        return STATUS_OK, evp_n
-    converged, mu = _return_mapping(f_tr, 1e-13 * scale, w, evp_n, xs, ys, ds, pt, alpha)
+        f_hi = _rm_phi(mu_hi, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t)
+    mu = mu_hi
+    if f_hi <= 0.0:
+        side = 0
+        for _it in range(200):
+            mu = (mu_lo * f_hi - mu_hi * f_lo) / (f_hi - f_lo)
+            if not (mu_lo < mu < mu_hi):
+                mu = 0.5 * (mu_lo + mu_hi)
+            fm = _rm_phi(mu, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t)
+            if abs(fm) < tol or (mu_hi - mu_lo) < 1e-15 * mu_hi:
+                converged = True
+                break
+            if fm > 0.0:
+                mu_lo, f_lo = mu, fm
+                if side == 1:
+                    f_hi *= 0.5
+                side = 1
+            else:
+                mu_hi, f_hi = mu, fm
+                if side == -1:
+                    f_lo *= 0.5
+                side = -1
     if not converged:
-        s_out[:] = 0.0
-        return STATUS_RETURN_MAP, evp_n
-    sig = w.sig
+        return STATUS_RETURN_MAP, s_out, evp_n
+    sig = k_fac * t
+    ep_glob = _mv(rot, ep_eig + mu * sig)
     for i in range(6):
-        w.vec[i] = w.ep_eig[i] + mu * sig[i]
-    _mv6(w.rot, w.vec, ep_new)
-    _rotate_back(w, w.t, s_out)
-    return STATUS_OK, evp_n - mu * (sig[0] + sig[1] + sig[2])
+        ep_new[i] = ep_glob[i]
+    s_out = _mv(rot, s_fac * t)
+    return STATUS_OK, s_out, evp_n - mu * (sig[0] + sig[1] + sig[2])
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _perturb(cm, h_rel, j, sign, cp):
-    """Perturb C so that Green-Lagrange Mandel component j changes by ``sign * h``.
-
-    Args:
-        cm: (3, 3) right Cauchy-Green tensor.
-        h_rel: Perturbation size in Green-Lagrange strain (for C near I).
-        j: Mandel component.
-        sign: +1.0 or -1.0.
-        cp: (3, 3) output: the perturbed tensor.
-
-    Returns:
-        ``h``, the perturbation size scaled by the smallest diagonal entry of C.
-    """
+@numba.njit(cache=True)
+def _perturbation(cm, h_rel, j):
+    """Symmetric perturbation of C that changes Green-Lagrange Mandel component j by h."""
     cmin = min(cm[0, 0], min(cm[1, 1], cm[2, 2]))
     h = h_rel * min(1.0, cmin)
     a = _MI[j]
     b = _MJ[j]
-    for k in range(3):
-        for m in range(3):
-            cp[k, m] = cm[k, m]
+    dc = np.zeros((3, 3))
     if a == b:
-        cp[a, a] = cm[a, a] + sign * (2.0 * h)
+        dc[a, a] = 2.0 * h
     else:
-        d = sign * (2.0 * h / SQRT2)
-        cp[a, b] = cm[a, b] + d
-        cp[b, a] = cm[b, a] + d
-    return h
+        dc[a, b] = 2.0 * h / SQRT2
+        dc[b, a] = 2.0 * h / SQRT2
+    return dc, h
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _cauchy_green(cmats, ip, cm):
-    """Symmetrised right Cauchy-Green tensor of point ``ip``.
-
-    Args:
-        cmats: (n, 9) tensors, row-major.
-        ip: Point index.
-        cm: (3, 3) output.
-    """
+@numba.njit(cache=True)
+def _cauchy_green(cmats, ip):
+    cm = np.empty((3, 3))
     for a in range(3):
         for b in range(3):
             cm[a, b] = 0.5 * (cmats[ip, 3 * a + b] + cmats[ip, 3 * b + a])
+    return cm
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True)
 def elastic_points(cmats, cel, measure, s_out, d_out, want_tangent, h_rel):
     """Stress and tangent of the elastic solid at every point (no state, no return map).
 
@@ -708,29 +452,27 @@ def elastic_points(cmats, cel, measure, s_out, d_out, want_tangent, h_rel):
     """
     nbad = 0
     worst = 0
-    w = _new_work()
     for ip in range(cmats.shape[0]):
-        _cauchy_green(cmats, ip, w.cm)
-        st = _elastic_update(w.cm, cel, measure, w, w.s)
+        cm = _cauchy_green(cmats, ip)
+        st, s = _elastic_update(cm, cel, measure)
         if st != STATUS_OK:
             nbad += 1
             worst = max(worst, st)
             continue
         for i in range(6):
-            s_out[ip, i] = w.s[i]
+            s_out[ip, i] = s[i]
         if not want_tangent:
             continue
         for j in range(6):
-            h = _perturb(w.cm, h_rel, j, 1.0, w.cp)
-            _elastic_update(w.cp, cel, measure, w, w.sp)
-            _perturb(w.cm, h_rel, j, -1.0, w.cp)
-            _elastic_update(w.cp, cel, measure, w, w.sm)
+            dc, h = _perturbation(cm, h_rel, j)
+            _stp, sp = _elastic_update(cm + dc, cel, measure)
+            _stm, sm = _elastic_update(cm - dc, cel, measure)
             for i in range(6):
-                d_out[ip, 6 * i + j] = (w.sp[i] - w.sm[i]) / (2.0 * h)
+                d_out[ip, 6 * i + j] = (sp[i] - sm[i]) / (2.0 * h)
     return nbad, worst
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True)
 def foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
                 s_out, d_out, ep_out, evp_out, want_tangent, h_rel):
     """Stress, tangent and trial state of the crushable foam at every point.
@@ -757,32 +499,27 @@ def foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
     """
     nbad = 0
     worst = 0
-    w = _new_work()
-    s, sp, sm = w.s, w.sp, w.sm
+    ep_tmp = np.zeros(6)
     for ip in range(cmats.shape[0]):
-        _cauchy_green(cmats, ip, w.cm)
-        epn = ep_n[ip]
-        evpn = evp_n[ip]
-        pc_n, _h = hermite_eval(evpn, xs, ys, ds)
-        st, evp = _foam_update(w.cm, epn, evpn, pc_n, cel, measure, props, xs, ys, ds, w, s,
-                               w.ep_new)
+        cm = _cauchy_green(cmats, ip)
+        st, s, evp = _foam_update(cm, ep_n[ip], evp_n[ip], cel, measure, props, xs, ys, ds,
+                                  ep_tmp)
         if st != STATUS_OK:
             nbad += 1
             worst = max(worst, st)
             continue
         for i in range(6):
             s_out[ip, i] = s[i]
-            ep_out[ip, i] = w.ep_new[i]
+            ep_out[ip, i] = ep_tmp[i]
         evp_out[ip] = evp
         if not want_tangent:
             continue
         for j in range(6):
-            h = _perturb(w.cm, h_rel, j, 1.0, w.cp)
-            stp, _e = _foam_update(w.cp, epn, evpn, pc_n, cel, measure, props, xs, ys, ds, w,
-                                   sp, w.ep_new)
-            _perturb(w.cm, h_rel, j, -1.0, w.cp)
-            stm, _e = _foam_update(w.cp, epn, evpn, pc_n, cel, measure, props, xs, ys, ds, w,
-                                   sm, w.ep_new)
+            dc, h = _perturbation(cm, h_rel, j)
+            stp, sp, _e = _foam_update(cm + dc, ep_n[ip], evp_n[ip], cel, measure, props,
+                                       xs, ys, ds, ep_tmp)
+            stm, sm, _e = _foam_update(cm - dc, ep_n[ip], evp_n[ip], cel, measure, props,
+                                       xs, ys, ds, ep_tmp)
             if stp == STATUS_OK and stm == STATUS_OK:
                 for i in range(6):
                     d_out[ip, 6 * i + j] = (sp[i] - sm[i]) / (2.0 * h)
@@ -793,10 +530,8 @@ def foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
                 for i in range(6):
                     d_out[ip, 6 * i + j] = (s[i] - sm[i]) / h
             else:  # both failed: elastic column
-                _perturb(w.cm, h_rel, j, 1.0, w.cp)
-                _elastic_update(w.cp, cel, measure, w, sp)
-                _perturb(w.cm, h_rel, j, -1.0, w.cp)
-                _elastic_update(w.cp, cel, measure, w, sm)
+                _a, sp = _elastic_update(cm + dc, cel, measure)
+                _b, sm = _elastic_update(cm - dc, cel, measure)
                 for i in range(6):
                     d_out[ip, 6 * i + j] = (sp[i] - sm[i]) / (2.0 * h)
     return nbad, worst
