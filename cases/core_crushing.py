@@ -17,6 +17,7 @@ from typing import Literal
 
 import numpy as np
 import ufl
+from dolfinx import fem
 
 from forming.case import main
 from forming.contact.shapes import Plane, RoundedBox
@@ -80,8 +81,10 @@ def build(p: Params) -> Job:
         under = ufl.conditional(ufl.And(ufl.lt(x[0], flat), ufl.lt(x[1], flat)), 1.0, 0.0)
         # crushing depth: through-thickness extent of crushed material under the punch flat
         depth = 0.0
+        level = fem.Constant(model.body.mesh, 0.0)
+        band = under * ufl.conditional(ufl.lt(x[2], level), 0.0, 1.0)
         for z0 in np.linspace(0.0, h, 41):
-            band = under * ufl.conditional(ufl.lt(x[2], z0), 0.0, 1.0)
+            level.value = z0
             if evp.crushed_volume(0.01, band) >= 0.5 * evp.integral(band):
                 depth = h - z0
                 break

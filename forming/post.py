@@ -34,15 +34,24 @@ class PlasticStrainField:
             body.mesh.basix_cell(), value_shape=(), degree=body.quadrature_degree))
         self.evp = fem.Function(Q, name="evp")
         self._dofs = Q.dofmap.list[body.cells].ravel()
+        self._forms: dict[str, fem.Form] = {}
 
     def update(self) -> None:
         """Copy the converged plastic strain into the quadrature function."""
         self.evp.x.array[self._dofs] = self.body.plastic.evp
 
     def integral(self, integrand) -> float:
-        """Integral of a UFL expression over the body (reference volume), all ranks."""
-        form = fem.form(integrand * self.body.dx)
-        return self.body.mesh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+        """Integral of a UFL expression over the body (reference volume), all ranks.
+
+        Compiled forms are kept by signature: vary a ``fem.Constant``, not a float, to
+        reuse one.
+        """
+        ufl_form = integrand * self.body.dx
+        key = ufl_form.signature()
+        if key not in self._forms:
+            self._forms[key] = fem.form(ufl_form)
+        return self.body.mesh.comm.allreduce(fem.assemble_scalar(self._forms[key]),
+                                             op=MPI.SUM)
 
     def crushed_volume(self, threshold: float = 0.01, where=None) -> float:
         """Reference volume where the volumetric plastic strain exceeds ``threshold``."""
