@@ -50,6 +50,7 @@ class Params:
     cells: tuple[int, ...] = (12, 12, 8)
     elasticity: Literal["transverse", "isotropic"] = "transverse"
     curve: str | None = None
+    viscosity: float = 0.0
     max_step: float = 0.1
     linear_solver: Literal["mumps", "gamg"] = "mumps"
 
@@ -61,7 +62,8 @@ def build(p: Params) -> Job:
     punch = RoundedBox((0.0, 0.0, h + tall), (p.punch / 2, p.punch / 2, tall), p.fillet)
     scene = Scene(
         name="core_crushing", mesh=mesh,
-        bodies=(Body("core", honeycomb_core(p.elasticity, curve=p.curve)),),
+        bodies=(Body("core", honeycomb_core(p.elasticity, curve=p.curve,
+                                           viscosity=p.viscosity)),),
         displacements=(Displacement("core", "xmin", x=0.0, reaction=False),
                        Displacement("core", "ymin", y=0.0, reaction=False)),
         tools=(Tool("punch", punch, z=Linear(-p.stroke)),

@@ -116,6 +116,7 @@ class SolidBody:
             PlasticState.zeros(self.n_points) if self.material.plastic else None
         )
         self._evaluated_at: np.ndarray | None = None
+        self.load_increment = 0.0  # step in the load parameter (viscous regularisation)
         self.kernel_seconds = 0.0
         self._warm_kernel()
 
@@ -167,7 +168,7 @@ class SolidBody:
         ps = self.plastic
         res = evaluate(
             self.material, cm, None if ps is None else ps.ep, None if ps is None else ps.evp,
-            want_tangent=want_tangent,
+            want_tangent=want_tangent, load_increment=self.load_increment,
         )
         self.kernel_seconds += time.perf_counter() - t0
         if res.n_failed:
@@ -245,6 +246,7 @@ class Model:
 
         self.scene = scene
         self.comm = scene.mesh.mesh.comm
+        self._t = self._t_committed = 0.0
         self.bodies = {b.name: SolidBody(b, scene) for b in scene.bodies}
         self.dirichlet = DirichletSet(scene, self.bodies)
         md = scene.mesh
@@ -303,6 +305,10 @@ class Model:
 
     def set_load(self, t: float) -> None:
         """Apply the loading programme at ``t`` (prescribed displacements, tool positions)."""
+        self._t = t
+        for b in self.bodies.values():
+            b.load_increment = t - self._t_committed
+            b.invalidate()
         self.dirichlet.set_load(t)
         for tr, const, _ds in self.tractions:
             const.value[:] = tr.value(t)
@@ -311,6 +317,7 @@ class Model:
 
     def commit(self) -> None:
         """Accept the converged state as history."""
+        self._t_committed = self._t
         for b in self.bodies.values():
             if b.plastic is not None:
                 b.plastic.commit()

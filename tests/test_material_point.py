@@ -185,3 +185,31 @@ def test_inverted_point_is_reported():
     foam = honeycomb_core()
     r = evaluate(foam, np.diag([1.0, 1.0, -0.1]).reshape(1, 9))
     assert r.n_failed == 1 and r.worst_status == kernels.STATUS_INVERTED
+
+
+def test_viscous_regularisation_overstress():
+    """With viscosity eta, a plastic step satisfies f(sigma, pc(evp)) = eta dgamma / dt
+    (Duvaut-Lions overstress); eta = 0 gives the rate-independent answer exactly.
+
+    Uniaxial compression with zero plastic Poisson ratio: dgamma = devp / sqrt(3/2).
+    """
+    from dataclasses import replace
+
+    foam = honeycomb_core("isotropic")
+    viscous = replace(foam, viscosity=0.05)
+    c = np.diag([1.0, 1.0, 0.9**2]).reshape(1, 9)
+    plain = evaluate(foam, c, want_tangent=False)
+    same = evaluate(viscous, c, want_tangent=False, load_increment=0.0)  # no rate given
+    np.testing.assert_array_equal(same.S, plain.S)
+    dt = 0.1
+    r = evaluate(viscous, c, want_tangent=False, load_increment=dt)
+    kd, h = foam.kernel_data(), foam.hardening
+    lam = 0.9
+    sig_zz = r.S[0, 2] * lam**2 / lam  # rotated Cauchy: U S U / J with J = lam
+    p, q = -sig_zz / 3, abs(sig_zz)
+    pc, _ = kernels.hermite_eval(r.evp[0], kd.xs, kd.ys, kd.ds)
+    p0 = 0.5 * (pc - h.pt)
+    f = np.sqrt(q**2 + h.alpha**2 * (p - p0) ** 2) - 0.5 * h.alpha * (pc + h.pt)
+    assert f > 0  # overstress
+    assert f == pytest.approx(0.05 / dt * r.evp[0] / np.sqrt(1.5), rel=1e-8)
+    assert abs(sig_zz) > abs(plain.S[0, 2] * lam)  # stiffer than rate-independent

@@ -303,12 +303,14 @@ def _foam_yield(sig, pc, pt, alpha):
 
 
 @numba.njit(cache=True)
-def _rm_phi(mu, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t_out):
+def _rm_phi(mu, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, visc, t_out):
     """Yield value after a return of size ``mu``; fills ``t_out`` with the stress.
 
     The flow is radial in the rotated Cauchy stress (``dg m = mu sigma``), so for a
     given ``mu`` the update ``T = T_tr - mu C K T`` is linear:
-    ``T = (I + mu C K)^-1 T_tr`` with ``K = diag(kappa)``.
+    ``T = (I + mu C K)^-1 T_tr`` with ``K = diag(kappa)``. With viscous regularisation
+    (``visc = eta / dt > 0``, Duvaut-Lions/Perzyna overstress) the value is
+    ``f - visc * dgamma`` with ``dgamma = 2/3 mu g``, ``g = sqrt(3/2 sigma : sigma)``.
     """
     a = np.empty((6, 6))
     for i in range(6):
@@ -321,7 +323,10 @@ def _rm_phi(mu, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t_out):
     sig = k_fac * t
     evp = evp_n - mu * (sig[0] + sig[1] + sig[2])
     pc, _h = hermite_eval(evp, xs, ys, ds)
-    return _foam_yield(sig, pc, pt, alpha)
+    f = _foam_yield(sig, pc, pt, alpha)
+    if visc > 0.0:
+        f -= visc * (2.0 / 3.0) * mu * math.sqrt(1.5 * _dot(sig, sig))
+    return f
 
 
 @numba.njit(cache=True)
@@ -352,6 +357,7 @@ def _foam_update(cmat, ep_n, evp_n, cel, measure, props, xs, ys, ds, ep_new):
     t_tr = _mv(c_eig, e_eig - ep_eig)
     pt = props[1]
     alpha = props[0]
+    visc = props[2]
     pc_n, _h = hermite_eval(evp_n, xs, ys, ds)
     sig = k_fac * t_tr
     f_tr = _foam_yield(sig, pc_n, pt, alpha)
@@ -370,14 +376,14 @@ def _foam_update(cmat, ep_n, evp_n, cel, measure, props, xs, ys, ds, ep_new):
     tol = 1e-13 * scale
     mu_lo, f_lo = 0.0, f_tr
     mu_hi = 1e-4 / cmax
-    f_hi = _rm_phi(mu_hi, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t)
+    f_hi = _rm_phi(mu_hi, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, visc, t)
     converged = False
     for _b in range(80):
         if f_hi <= 0.0:
             break
         mu_lo, f_lo = mu_hi, f_hi
         mu_hi *= 2.0
-        f_hi = _rm_phi(mu_hi, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t)
+        f_hi = _rm_phi(mu_hi, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, visc, t)
     mu = mu_hi
     if f_hi <= 0.0:
         side = 0
@@ -385,7 +391,7 @@ def _foam_update(cmat, ep_n, evp_n, cel, measure, props, xs, ys, ds, ep_new):
             mu = (mu_lo * f_hi - mu_hi * f_lo) / (f_hi - f_lo)
             if not (mu_lo < mu < mu_hi):
                 mu = 0.5 * (mu_lo + mu_hi)
-            fm = _rm_phi(mu, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, t)
+            fm = _rm_phi(mu, t_tr, c_eig, k_fac, evp_n, xs, ys, ds, pt, alpha, visc, t)
             if abs(fm) < tol or (mu_hi - mu_lo) < 1e-15 * mu_hi:
                 converged = True
                 break
@@ -483,7 +489,7 @@ def foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
         evp_n: (n,) converged volumetric plastic strain (compression positive).
         cel: (6, 6) Mandel elastic stiffness in the material frame.
         measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
-        props: [alpha, pt].
+        props: [alpha, pt, eta / dt] (the last 0 without viscous regularisation).
         xs: Hardening table abscissae (volumetric plastic strain).
         ys: Hardening table values pc [MPa].
         ds: Hermite slopes of the table.

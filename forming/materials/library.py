@@ -50,7 +50,7 @@ def honeycomb_core(
     el = _values(data[elasticity])
     foam = _values(data["foam"])
     measure = el.pop("strain_measure")
-    known = set(el) | {"k", "kt", "strain_measure"}
+    known = set(el) | {"k", "kt", "strain_measure", "viscosity"}
     for key, val in overrides.items():
         if key not in known:
             raise InputError(f"core.{key}", f"unknown core parameter; known: {sorted(known)}")
@@ -66,4 +66,4 @@ def honeycomb_core(
         return ElasticSolid(law, strain_measure=measure)
     path = Path(curve) if curve is not None else Path(str(DATA / foam["curve"]))
     return CrushableFoam(law, CompressionCurve.from_csv(path), k=foam["k"], kt=foam["kt"],
-                         strain_measure=measure)
+                         strain_measure=measure, viscosity=foam.get("viscosity", 0.0))

@@ -70,8 +70,13 @@ def evaluate(
     evp_n: np.ndarray | None = None,
     want_tangent: bool = True,
     h: float = 1e-6,
+    load_increment: float = 0.0,
 ) -> PointResult:
-    """Evaluate a point material at right Cauchy-Green tensors ``cmats`` (n, 9)."""
+    """Evaluate a point material at right Cauchy-Green tensors ``cmats`` (n, 9).
+
+    ``load_increment`` (the step in the load parameter) scales the viscous
+    regularisation of a foam with ``viscosity > 0``; it is ignored otherwise.
+    """
     k = material.kernel_data()
     n = cmats.shape[0]
     cm = np.ascontiguousarray(cmats, dtype=float)
@@ -83,8 +88,13 @@ def evaluate(
     ep_in = np.zeros((n, 6)) if ep_n is None else np.ascontiguousarray(ep_n)
     evp_in = np.zeros(n) if evp_n is None else np.ascontiguousarray(evp_n)
     ep_out, evp_out = ep_in.copy(), evp_in.copy()
+    props = k.props
+    eta = getattr(material, "viscosity", 0.0)
+    if eta > 0.0 and load_increment > 0.0:
+        props = props.copy()
+        props[2] = eta / load_increment
     nbad, worst = kernels.foam_points(
-        cm, ep_in, evp_in, k.cel, k.measure, k.props, k.xs, k.ys, k.ds, s, d, ep_out, evp_out,
+        cm, ep_in, evp_in, k.cel, k.measure, props, k.xs, k.ys, k.ds, s, d, ep_out, evp_out,
         want_tangent, h,
     )
     return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad), int(worst))
@@ -159,6 +169,10 @@ class CrushableFoam:
         kt: Ratio of hydrostatic tension to initial hydrostatic compression yield stress.
         strain_measure: ``"hencky"`` (logarithmic), ``"biot"``, or ``"biot-hencky"``
             (Biot in principal extension, Hencky in principal compression).
+        viscosity: Viscous regularisation eta [MPa per unit load parameter]: the return
+            mapping solves ``f = eta * dgamma / dt`` (Duvaut-Lions overstress), which
+            keeps Newton on a unique path through softening; 0 (default) is
+            rate-independent, as the paper's core.
     """
 
     elasticity: Elasticity
@@ -166,12 +180,15 @@ class CrushableFoam:
     k: float = 1.1
     kt: float = 0.1
     strain_measure: StrainMeasure = "hencky"
+    viscosity: float = 0.0
     def __post_init__(self) -> None:
         _measure(self.strain_measure)
         if not (0.0 < self.k < 3.0):
             raise InputError("material.k", f"must lie in (0, 3), got {self.k!r}")
         if not (0.0 <= self.kt):
             raise InputError("material.kt", f"must be non-negative, got {self.kt!r}")
+        if not (math.isfinite(self.viscosity) and self.viscosity >= 0.0):
+            raise InputError("material.viscosity", f"must be >= 0, got {self.viscosity!r}")
         if abs(self.elasticity.lateral_poisson) > 1e-12:
             log.warning(
                 "crushable foam: the curve conversion assumes no lateral strain in the "
@@ -241,7 +258,7 @@ class CrushableFoam:
         h = self.hardening
         return KernelData(
             self.elasticity.stiffness(), _measure(self.strain_measure), True,
-            np.array([h.alpha, h.pt]), h.evp, h.pc, h.slope,
+            np.array([h.alpha, h.pt, 0.0]), h.evp, h.pc, h.slope,
         )
 
     def kernel_data(self) -> KernelData:
