@@ -17,7 +17,6 @@ from typing import Literal
 
 import numpy as np
 import ufl
-from dolfinx import fem
 
 from forming.case import main
 from forming.contact.shapes import Plane, RoundedBox
@@ -82,6 +81,8 @@ def build(p: Params) -> Job:
         flat = p.punch / 2 - p.fillet
         under = ufl.conditional(ufl.And(ufl.lt(x[0], flat), ufl.lt(x[1], flat)), 1.0, 0.0)
         # crushing depth: through-thickness extent of crushed material under the punch flat
+        from dolfinx import fem  # after forming: PETSc comes from dolfinx_solver
+
         depth = 0.0
         level = fem.Constant(model.body.mesh, 0.0)
         band = under * ufl.conditional(ufl.lt(x[2], level), 0.0, 1.0)

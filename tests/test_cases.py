@@ -81,3 +81,15 @@ def test_cli_runs_a_case_and_reports_outputs(tmp_path, repo):
                          cwd=repo, capture_output=True, text=True, check=False)
     assert bad.returncode == 2
     assert "--set strian: unknown parameter" in bad.stderr
+
+
+@pytest.mark.parametrize("case", sorted(p.stem for p in
+                                        (__import__("pathlib").Path(__file__).parent.parent
+                                         / "cases").glob("*.py")))
+def test_case_script_imports_as_a_script(case, repo):
+    """``python cases/X.py --help`` works: the script's own imports load PETSc correctly
+    (importing dolfinx before forming breaks the PyPI stack)."""
+    proc = subprocess.run([sys.executable, f"cases/{case}.py", "--help"], cwd=repo,
+                          capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "--set" in proc.stdout
