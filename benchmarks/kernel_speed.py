@@ -52,38 +52,26 @@ def random_cmats(n: int, seed: int = 0) -> np.ndarray:
     return out
 
 
-def evaluate_with(kernels, material, cmats, ep, evp) -> float:
-    """Wall time of one ``evaluate(..., want_tangent=True)`` with ``kernels`` [s]."""
+def time_per_point(kernels, material, cmats, ep, evp, repeats: int) -> float:
+    """Best wall time of ``evaluate(..., want_tangent=True)`` per point [us]."""
     solids.kernels = kernels
     try:
-        t0 = time.perf_counter()
-        solids.evaluate(material, cmats, ep, evp, want_tangent=True)
-        return time.perf_counter() - t0
+        solids.evaluate(material, cmats[:10], ep[:10], evp[:10], want_tangent=True)  # compile
+        best = np.inf
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            solids.evaluate(material, cmats, ep, evp, want_tangent=True)
+            best = min(best, time.perf_counter() - t0)
     finally:
         solids.kernels = new_kernels
-
-
-def compare(old_kernels, material, cmats, ep, evp, repeats: int) -> tuple[float, float]:
-    """Best time per point [us] of the old and the new kernels, runs interleaved.
-
-    Interleaving and keeping the best of ``repeats`` runs makes the ratio robust to
-    other load on the machine.
-    """
-    for kernels in (old_kernels, new_kernels):  # compile or load from cache
-        evaluate_with(kernels, material, cmats[:10], ep[:10], evp[:10])
-    best_old = best_new = np.inf
-    for _ in range(repeats):
-        best_old = min(best_old, evaluate_with(old_kernels, material, cmats, ep, evp))
-        best_new = min(best_new, evaluate_with(new_kernels, material, cmats, ep, evp))
-    n = cmats.shape[0]
-    return 1e6 * best_old / n, 1e6 * best_new / n
+    return 1e6 * best / cmats.shape[0]
 
 
 def main() -> None:
     """Print us/point for old and new kernels for each honeycomb-core material."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=20_000)
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--old", default="HEAD", help="git revision of the old kernels")
     args = parser.parse_args()
 
@@ -104,7 +92,8 @@ def main() -> None:
             r0 = solids.evaluate(mat, cm0, want_tangent=False)
             ep = r0.ep if r0.ep is not None else np.zeros((args.points, 6))
             evp = r0.evp if r0.evp is not None else np.zeros(args.points)
-            t_old, t_new = compare(old_kernels, mat, cm1, ep, evp, args.repeats)
+            t_old = time_per_point(old_kernels, mat, cm1, ep, evp, args.repeats)
+            t_new = time_per_point(new_kernels, mat, cm1, ep, evp, args.repeats)
             print(f"{name:18s} {t_old:10.2f} {t_new:10.2f} {t_old / t_new:8.2f}x", flush=True)
 
 
