@@ -1,8 +1,9 @@
 """Time the quadrature-point kernels: microseconds per point, with the tangent.
 
 Compares the kernels of the working tree ("new") with those of a git revision
-("old", default ``HEAD``) on the same points and history, through
-:func:`forming.materials.solids.evaluate`. Run with a fresh numba cache, e.g.
+("old", default ``HEAD``) on the same points and plastic history, through
+:func:`forming.materials.solids.evaluate`, and checks that both give the same
+results. Run with a fresh numba cache, e.g.
 ``NUMBA_CACHE_DIR=/tmp/numba_kspeed python benchmarks/kernel_speed.py``.
 """
 
@@ -52,26 +53,41 @@ def random_cmats(n: int, seed: int = 0) -> np.ndarray:
     return out
 
 
-def time_per_point(kernels, material, cmats, ep, evp, repeats: int) -> float:
-    """Best wall time of ``evaluate(..., want_tangent=True)`` per point [us]."""
+def evaluate_with(kernels, material, cmats, ep, evp) -> tuple[float, solids.PointResult]:
+    """Wall time [s] and result of ``evaluate(..., want_tangent=True)`` with ``kernels``."""
     solids.kernels = kernels
     try:
-        solids.evaluate(material, cmats[:10], ep[:10], evp[:10], want_tangent=True)  # compile
-        best = np.inf
-        for _ in range(repeats):
-            t0 = time.perf_counter()
-            solids.evaluate(material, cmats, ep, evp, want_tangent=True)
-            best = min(best, time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        res = solids.evaluate(material, cmats, ep, evp, want_tangent=True)
+        return time.perf_counter() - t0, res
     finally:
         solids.kernels = new_kernels
-    return 1e6 * best / cmats.shape[0]
+
+
+def compare(old_kernels, material, cmats, ep, evp, repeats: int) -> tuple[float, float, bool]:
+    """Best time per point [us] of the old and the new kernels, and whether they agree.
+
+    The runs alternate and the best of ``repeats`` counts, which keeps the ratio
+    robust to other load on the machine.
+    """
+    for kernels in (old_kernels, new_kernels):  # compile or load from cache
+        evaluate_with(kernels, material, cmats[:10], ep[:10], evp[:10])
+    best_old = best_new = np.inf
+    for _ in range(repeats):
+        t_old, r_old = evaluate_with(old_kernels, material, cmats, ep, evp)
+        t_new, r_new = evaluate_with(new_kernels, material, cmats, ep, evp)
+        best_old, best_new = min(best_old, t_old), min(best_new, t_new)
+    same = all(np.array_equal(a, b) for a, b in zip(r_old[:4], r_new[:4], strict=True)
+               if a is not None)
+    n = cmats.shape[0]
+    return 1e6 * best_old / n, 1e6 * best_new / n, same
 
 
 def main() -> None:
     """Print us/point for old and new kernels for each honeycomb-core material."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=20_000)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--old", default="HEAD", help="git revision of the old kernels")
     args = parser.parse_args()
 
@@ -87,14 +103,15 @@ def main() -> None:
     }
     with tempfile.TemporaryDirectory() as tmp:
         old_kernels = load_old_kernels(args.old, Path(tmp))
-        print(f"{'material':18s} {'old us/pt':>10s} {'new us/pt':>10s} {'speed-up':>9s}")
+        print(f"{'material':18s} {'old us/pt':>10s} {'new us/pt':>10s} {'speed-up':>9s}  "
+              "same results")
         for name, mat in materials.items():
             r0 = solids.evaluate(mat, cm0, want_tangent=False)
             ep = r0.ep if r0.ep is not None else np.zeros((args.points, 6))
             evp = r0.evp if r0.evp is not None else np.zeros(args.points)
-            t_old = time_per_point(old_kernels, mat, cm1, ep, evp, args.repeats)
-            t_new = time_per_point(new_kernels, mat, cm1, ep, evp, args.repeats)
-            print(f"{name:18s} {t_old:10.2f} {t_new:10.2f} {t_old / t_new:8.2f}x", flush=True)
+            t_old, t_new, same = compare(old_kernels, mat, cm1, ep, evp, args.repeats)
+            print(f"{name:18s} {t_old:10.2f} {t_new:10.2f} {t_old / t_new:8.2f}x  {same}",
+                  flush=True)
 
 
 if __name__ == "__main__":
