@@ -46,7 +46,6 @@ class Recorder:
             self.out.mkdir(parents=True, exist_ok=True)
         comm.barrier()
         self._writers: list = []
-        self._fields: list[fem.Function] = []
 
     def add_fields(self, name: str, functions: list[fem.Function]) -> None:
         """Write ``functions`` (one element type) to ``<name>.bp`` at every output."""

@@ -176,6 +176,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
             "wall_s": wall_s, "jit_s": jit_s, "steps": stepper.n_accepted,
             "rejected_steps": stepper.n_rejected, "newton_iterations": newton_total,
             "kernel_s": comm.allreduce(body.kernel_seconds) / comm.size,
+            "assembly_s": comm.allreduce(solver.assembly_seconds) / comm.size,
         },
         "ranks": comm.size,
         "mesh": {"cells": comm.allreduce(body.n_local_cells),

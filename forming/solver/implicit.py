@@ -135,7 +135,6 @@ class ImplicitSolver:
         body = model.body
         v = ufl.TestFunction(body.V)
         du = ufl.TrialFunction(body.V)
-        t0 = time.perf_counter()
         self.prefix = f"forming{next(_ids) or ''}_"
         opts = self.options.petsc_options()
         cmdline = PETSc.Options()
@@ -144,7 +143,6 @@ class ImplicitSolver:
             model.residual(v), body.u, bcs=model.dirichlet.bcs, J=model.jacobian(du, v),
             petsc_options_prefix=self.prefix, petsc_options=opts,
         )
-        self.compile_seconds = time.perf_counter() - t0
         snes = self.problem.solver
         self._fctx = {"u": body.u, "residual": self.problem.F, "jacobian": self.problem.J,
                       "bcs": model.dirichlet.bcs}
