@@ -189,6 +189,12 @@ class SolidBody:
         self._evaluated_at = None
 
     # -- outputs -------------------------------------------------------------------------
+    def min_det_F(self) -> float:
+        """Smallest Jacobian determinant over the quadrature points of all ranks."""
+        cj = self._C_expr.eval(self.mesh, self.cells[: self.n_local_cells]).reshape(-1, 10)
+        local = float(cj[:, 9].min()) if cj.size else np.inf
+        return self.mesh.comm.allreduce(local, op=MPI.MIN)
+
     def cell_average(self, values: np.ndarray) -> np.ndarray:
         """Average of point values over each local cell (owned cells only)."""
         per_cell = values.reshape(len(self.cells), -1)[: self.n_local_cells]

@@ -100,6 +100,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
     stepper = Stepper(job.steps)
     progress = Progress(case)
     newton_total = 0
+    newton_accepted = 0
     status, reason = "completed", ""
 
     def record(res_its: int, res_norm: float, step_s: float) -> None:
@@ -107,6 +108,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
             "step": stepper.n_accepted, "t": stepper.t, "dt": stepper.last_dt,
             "newton_iterations": res_its, "residual": res_norm, "step_wall_s": step_s,
         }
+        row["min_det_F"] = model.body.min_det_F()
         row |= {f"reaction_{k}_N": v for k, v in model.dirichlet.reactions(comm).items()}
         for c in model.contacts:
             f = c.force()
@@ -134,6 +136,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
         newton_total += res.iterations
         if res.converged:
             model.commit()
+            newton_accepted += res.iterations
             solver.accept(snap["bodies"][0][0])
             stepper.accept(t_new, res.iterations)
             record(res.iterations, res.residuals[-1] if res.residuals else 0.0, res.seconds)
@@ -175,6 +178,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
         "timing": {
             "wall_s": wall_s, "jit_s": jit_s, "steps": stepper.n_accepted,
             "rejected_steps": stepper.n_rejected, "newton_iterations": newton_total,
+            "newton_per_step": newton_accepted / max(stepper.n_accepted, 1),
             "kernel_s": comm.allreduce(body.kernel_seconds) / comm.size,
             "assembly_s": comm.allreduce(solver.assembly_seconds) / comm.size,
         },
