@@ -33,6 +33,11 @@ class NewtonOptions:
             aggregation AMG with rigid-body near-null space, for large models).
         rtol: Residual reduction relative to the first residual of a step.
         atol: Absolute residual norm [N].
+        force_rtol: Newton also stops when the residual norm is below this fraction of
+            the force scale of the last converged step (largest reaction or tool force).
+            1e-4 accepts a force imbalance 50 times smaller than Abaqus/Standard's default
+            (5e-3 of the average force); it ends the slow tail that stick-slip switching
+            of unloaded contact nodes causes. 0 switches it off.
         max_it: Newton iterations before a step counts as failed.
         line_search: ``"basic"`` (full Newton step) or ``"bt"`` (backtracking).
         predictor: ``"extrapolate"`` (linear in the load parameter) or ``"previous"``.
@@ -45,6 +50,7 @@ class NewtonOptions:
     linear_solver: Literal["mumps", "gamg"] = "mumps"
     rtol: float = 1e-9
     atol: float = 1e-8
+    force_rtol: float = 1e-4
     max_it: int = 25
     line_search: Literal["basic", "bt"] = "basic"
     predictor: Literal["extrapolate", "previous"] = "extrapolate"
@@ -61,6 +67,8 @@ class NewtonOptions:
         if self.predictor not in ("extrapolate", "previous"):
             raise InputError("solver.predictor", f"must be 'extrapolate' or 'previous', got "
                              f"{self.predictor!r}")
+        if not self.force_rtol >= 0.0:
+            raise InputError("solver.force_rtol", f"must be >= 0, got {self.force_rtol}")
         if self.max_it < 1:
             raise InputError("solver.max_it", f"must be >= 1, got {self.max_it}")
 
@@ -158,6 +166,8 @@ class ImplicitSolver:
         self._u_prev: np.ndarray | None = None
         self.assembly_seconds = 0.0
         self.last_augmentations = 0
+        self._force_scale = 0.0
+        self._user_atol = "snes_atol" not in opts  # set on the command line: keep it
 
     # -- SNES callbacks --------------------------------------------------------------
     def _residual(self, snes, x, b) -> None:
@@ -224,6 +234,9 @@ class ImplicitSolver:
         self._residuals = []
         t0 = time.perf_counter()
         snes = self.problem.solver
+        if not self._user_atol:
+            snes.setTolerances(atol=max(self.options.atol,
+                                        self.options.force_rtol * self._force_scale))
         iterations = 0
         contacts = self.model.contacts
         ok, reason, aug = False, "", 0
@@ -248,5 +261,10 @@ class ImplicitSolver:
                           time.perf_counter() - t0, aug)
 
     def accept(self, u_before: np.ndarray) -> None:
-        """Remember the previous converged displacement for the predictor."""
+        """Remember the previous converged displacement (predictor) and force scale.
+
+        Call after the model committed the step.
+        """
         self._u_prev = u_before
+        if self.options.force_rtol > 0.0:
+            self._force_scale = self.model.force_scale()
