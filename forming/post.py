@@ -177,6 +177,7 @@ def plastic_strain_pictures(model, out, section: str, title: str, tools_3d=None)
     in_plane = (0, 2) if axis == 1 else (1, 2)
     sec = section_polygons(body, md.facet_tags, md.names[section][1], in_plane, evp)
     grid = deformed_grid(body, {"volumetric_plastic_strain": evp})
+    bounds, resolution = model.tool_bounds(), model.tool_resolution()  # collective
     if model.comm.rank != 0:
         return []
     out = Path(out)
@@ -188,7 +189,7 @@ def plastic_strain_pictures(model, out, section: str, title: str, tools_3d=None)
                      (axis, 0.0), in_plane, label="volumetric plastic strain",
                      title=f"{title}: section {'xy'[axis]} = 0", mirror=True),
         render_3d(out / "plastic_strain_3d.png", grid, "volumetric_plastic_strain", shown,
-                  model.tool_bounds(), model.tool_resolution(), title=title),
+                  bounds, resolution, title=title),
     ]
 
 

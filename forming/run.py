@@ -9,7 +9,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from dolfinx import fem  # noqa: I001
 
 from forming import compat
 from forming.log import Progress
@@ -61,27 +60,26 @@ class _Fields:
         body = model.body
         recorder.add_fields("displacement", [body.u])
         self.tools = None
-        if model.scene.tools and model.comm.rank == 0:
-            from forming.contact.render import ToolSeries
+        if model.scene.tools:
+            # collective (reductions over ranks): on every rank, outside the rank-0 branch
+            bounds, resolution = model.tool_bounds(), model.tool_resolution()
+            if model.comm.rank == 0:
+                from forming.contact.render import ToolSeries
 
-            self.tools = ToolSeries(recorder.out, [(t.name, t.shape) for t in model.scene.tools],
-                                    model.tool_bounds(), model.tool_resolution())
-        self.evp = None
-        if body.plastic is not None:
-            W = fem.functionspace(body.mesh, ("DG", 0))
-            self.evp = fem.Function(W, name="volumetric_plastic_strain")
-            recorder.add_fields("plastic_strain", [self.evp])
+                self.tools = ToolSeries(recorder.out,
+                                        [(t.name, t.shape) for t in model.scene.tools],
+                                        bounds, resolution)
+        self.body_fields = body.output_fields()
+        for stem, funcs in self.body_fields.items():
+            recorder.add_fields(stem, funcs)
 
     def write_tools(self, step: int, t: float) -> None:
         if self.tools is not None:
             self.tools.write(step, t, {tl.name: tl.offset(t) for tl in self.model.scene.tools})
 
     def update(self) -> None:
-        body = self.model.body
-        if self.evp is not None:
-            n = body.n_local_cells
-            self.evp.x.array[:n] = body.cell_average(body.plastic.evp)
-            self.evp.x.scatter_forward()
+        if self.body_fields:
+            self.model.body.update_output()
 
 
 def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
@@ -189,7 +187,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
         "versions": compat.versions(),
         "parameters": parameters,
         "outputs": ["summary.json", "history.csv", "displacement.bp"]
-        + (["plastic_strain.bp"] if body.plastic is not None else [])
+        + [f"{stem}.bp" for stem in body.output_fields()]
         + [f"tool_{t.name}.pvd" for t in job.scene.tools],
     }
     if job.pictures is not None:

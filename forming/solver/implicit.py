@@ -12,6 +12,7 @@ import numpy as np
 import ufl
 from dolfinx import fem  # noqa: I001
 from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_residual
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from forming import compat  # noqa: F401
@@ -176,11 +177,16 @@ class ImplicitSolver:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         body.u.x.petsc_vec.array_w[:] = x.array_r
         body.u.x.scatter_forward()
+        failure = None
         try:
             # the tangent too: the Dirichlet lifting inside the residual uses the Jacobian
             body.update_material(want_tangent=True)
         except KernelFailure as exc:
-            self._failure = str(exc)
+            failure = str(exc)
+        # collective decision: a rank that skipped assembly would leave the others waiting
+        # in the ghost exchange
+        if body.mesh.comm.allreduce(failure is not None, op=MPI.LOR):
+            self._failure = failure or "a point kernel failed on another rank"
             b.set(np.nan)
             return
         assemble_residual(snes, x, b, **self._fctx)
