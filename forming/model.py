@@ -20,7 +20,7 @@ from mpi4py import MPI
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
 from forming.materials.solids import PointMaterial, evaluate
-from forming.scene import Body, Displacement, Scene
+from forming.scene import AffineDisplacement, Body, Displacement, Scene
 
 log = logging.getLogger(__name__)
 _R2 = math.sqrt(2.0)
@@ -188,7 +188,27 @@ class SolidBody:
         """Forget the cached evaluation (after the state or ``u`` changed outside SNES)."""
         self._evaluated_at = None
 
+    def contact_stiffness(self) -> float:
+        """Largest diagonal elastic modulus [MPa] (sets default contact penalties)."""
+        return float(np.max(np.diag(self.material.kernel_data().cel)))
+
     # -- outputs -------------------------------------------------------------------------
+    def output_fields(self) -> dict[str, list[fem.Function]]:
+        """ParaView fields besides the displacement: file stem -> functions."""
+        if self.plastic is None:
+            return {}
+        if not hasattr(self, "_evp_cells"):
+            W = fem.functionspace(self.mesh, ("DG", 0))
+            self._evp_cells = fem.Function(W, name="volumetric_plastic_strain")
+        return {"plastic_strain": [self._evp_cells]}
+
+    def update_output(self) -> None:
+        """Cell means of the converged plastic strain into the output fields."""
+        if self.plastic is not None:
+            f = self.output_fields()["plastic_strain"][0]
+            f.x.array[: self.n_local_cells] = self.cell_average(self.plastic.evp)
+            f.x.scatter_forward()
+
     def min_det_F(self) -> float:
         """Smallest Jacobian determinant over the quadrature points of all ranks."""
         cj = self._C_expr.eval(self.mesh, self.cells[: self.n_local_cells]).reshape(-1, 10)
@@ -212,9 +232,18 @@ class DirichletSet:
         self.items: list[tuple[Displacement, int, fem.Constant]] = []
         self.bcs: list[fem.DirichletBC] = []
         self._reaction_forms: dict[str, fem.Form] = {}
+        self.affine: list[tuple[AffineDisplacement, int, fem.Function]] = []
         for d in scene.displacements:
             body = bodies[d.body]
             facets = scene.mesh.facets(d.region)
+            if isinstance(d, AffineDisplacement):
+                for comp in d.components:
+                    Vc, _ = body.V.sub(comp).collapse()
+                    u_bc = fem.Function(Vc)
+                    dofs = fem.locate_dofs_topological((body.V.sub(comp), Vc), 2, facets)
+                    self.bcs.append(fem.dirichletbc(u_bc, dofs, body.V.sub(comp)))
+                    self.affine.append((d, comp, u_bc))
+                continue
             for comp, _path in d.components():
                 Vc = body.V.sub(comp)
                 dofs = fem.locate_dofs_topological(Vc, 2, facets)
@@ -227,14 +256,15 @@ class DirichletSet:
                     dofs_sub = fem.locate_dofs_topological((body.V.sub(comp), Vsub), 2, facets)[0]
                     w.x.array[dofs_sub] = 1.0
                     key = f"{d.region}_{'xyz'[comp]}"
-                    self._reaction_forms[key] = fem.form(
-                        ufl.inner(body.first_piola(), ufl.grad(w)) * body.dx
-                    )
+                    self._reaction_forms[key] = fem.form(body.residual(w))
 
     def set_load(self, t: float) -> None:
         """Set the prescribed values at load parameter ``t``."""
         for d, comp, const in self.items:
             const.value = d.value(comp, t)
+        for d, comp, u_bc in self.affine:
+            row = np.asarray(d.gradient(t), dtype=float)[comp]
+            u_bc.interpolate(lambda x, row=row: row @ x)
 
     def reactions(self, comm: MPI.Comm) -> dict[str, float]:
         """Reaction forces [N] on the recorded faces, summed over ranks."""
@@ -242,6 +272,16 @@ class DirichletSet:
             k: comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
             for k, f in self._reaction_forms.items()
         }
+
+
+def make_body(body: Body, scene: Scene):
+    """The discrete body for a scene body: a fabric layer or a (plastic) solid."""
+    from forming.fabric_body import FabricBody
+    from forming.materials.fabric import NonCrimpFabric
+
+    if isinstance(body.material, NonCrimpFabric):
+        return FabricBody(body, scene)
+    return SolidBody(body, scene)
 
 
 class Model:
@@ -253,7 +293,7 @@ class Model:
         self.scene = scene
         self.comm = scene.mesh.mesh.comm
         self._t = self._t_committed = 0.0
-        self.bodies = {b.name: SolidBody(b, scene) for b in scene.bodies}
+        self.bodies = {b.name: make_body(b, scene) for b in scene.bodies}
         self.dirichlet = DirichletSet(scene, self.bodies)
         md = scene.mesh
         box = self.bounding_box()
@@ -269,6 +309,11 @@ class Model:
                         md.facets(c.region), md.names[c.region][1], min(extent))
             for c in scene.contacts
         ]
+
+    @property
+    def t(self) -> float:
+        """Load parameter of the current state."""
+        return self._t
 
     def force_scale(self) -> float:
         """Largest external force on the body [N]: Dirichlet reactions and tool forces."""

@@ -8,11 +8,13 @@ asks for it: the model builds only the terms the scene calls for.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from forming.errors import InputError
+from forming.materials.fabric import NonCrimpFabric
 from forming.materials.solids import SolidMaterial
 from forming.mesh import MeshData
 
@@ -60,13 +62,13 @@ class Body:
 
     Attributes:
         name: Unique name, used in outputs.
-        material: Its material (elastic or crushable foam).
+        material: Its material (elastic, crushable foam, or a fabric layer).
         region: Volume physical group; ``None`` for the whole mesh.
         degree: Polynomial degree of the displacement.
     """
 
     name: str
-    material: SolidMaterial
+    material: SolidMaterial | NonCrimpFabric
     region: str | None = None
     degree: int = 1
 
@@ -109,6 +111,35 @@ class Displacement:
         """Prescribed value of ``component`` at load parameter ``t``."""
         p = (self.x, self.y, self.z)[component]
         return float(p) if isinstance(p, int | float) else p(t)
+
+
+@dataclass(frozen=True)
+class AffineDisplacement:
+    """Displacement ``u = H(t) X`` prescribed (all components) on a face of a body.
+
+    For kinematic fixtures that move the face as a whole, such as a pin-jointed picture
+    frame (``H = F_frame(t) - I``) or clamps of a bias-extension specimen.
+
+    Attributes:
+        body: Name of the body.
+        region: Surface physical group.
+        gradient: ``H(t)``, a 3 x 3 displacement gradient at load parameter ``t``.
+        components: The prescribed components (0, 1, 2 for x, y, z); the others are free.
+    """
+
+    body: str
+    region: str
+    gradient: Callable[[float], np.ndarray]
+    components: tuple[int, ...] = (0, 1, 2)
+
+    def __post_init__(self) -> None:
+        if not self.components or not set(self.components) <= {0, 1, 2}:
+            raise InputError(f"displacement[{self.region}].components",
+                             f"must be a non-empty subset of (0, 1, 2), got {self.components}")
+        h = np.asarray(self.gradient(0.0), dtype=float)
+        if h.shape != (3, 3) or not np.all(np.isfinite(h)):
+            raise InputError(f"displacement[{self.region}].gradient",
+                             f"must return a finite 3 x 3 array, got shape {h.shape}")
 
 
 @dataclass(frozen=True)
@@ -212,7 +243,7 @@ class Scene:
     name: str
     mesh: MeshData
     bodies: tuple[Body, ...]
-    displacements: tuple[Displacement, ...] = ()
+    displacements: tuple[Displacement | AffineDisplacement, ...] = ()
     tractions: tuple[Traction, ...] = ()
     tools: tuple[Tool, ...] = ()
     contacts: tuple[Contact, ...] = ()

@@ -50,7 +50,7 @@ class ContactTerm:
         self.comm = msh.comm
         h = surface_edge_min(msh, facets)
         self.tolerance = contact.tolerance or 0.01 * min(h, thickness)
-        stiffness = float(np.max(np.diag(body.material.kernel_data().cel)))
+        stiffness = body.contact_stiffness()
         self.penalty = contact.penalty or 10.0 * stiffness / h
         self.friction = contact.friction
         self.ds = ufl.Measure("ds", domain=msh, subdomain_data=facet_tags, subdomain_id=tag,

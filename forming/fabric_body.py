@@ -1,0 +1,126 @@
+"""A fabric skin as a one-element-thick hyperelastic solid layer.
+
+The strain energy of :class:`~forming.materials.fabric.NonCrimpFabric` is integrated with
+two rules (docs/theory.md, "Fabric skins"):
+
+* fibre tension and compression at one point per cell (the centroid). A one-element-thick
+  layer then has no fibre contribution to its bending stiffness (a bent layer has zero
+  membrane strain at mid-thickness), and fibres at +/-45 deg to the element edges do not
+  lock: a fully integrated Q1 hexahedron would impose the two inextensibility constraints
+  at each of its 8 points.
+* picture-frame shear and the soft matrix with the full 2 x 2 x 2 rule. They resist the
+  hourglass modes that the one-point fibre rule leaves, and their bending stiffness is
+  that of a soft layer: a few N mm, like a dry fabric's.
+
+Residual and Jacobian are the first and second variations of the energy (UFL); there is
+no history, so nothing is evaluated at quadrature points outside the forms.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem, mesh  # noqa: I001
+from mpi4py import MPI
+
+from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from forming.materials.fabric import NonCrimpFabric
+from forming.scene import Body, Scene
+
+FIBRE_DEGREE = 1  # one Gauss point per hexahedron
+FULL_DEGREE = 2  # 2 x 2 x 2 Gauss points
+
+
+class FabricBody:
+    """A deformable fabric layer: displacement, energy forms and shear-angle output.
+
+    Args:
+        body: The scene's body; its material is a :class:`NonCrimpFabric`.
+        scene: The scene (mesh).
+    """
+
+    plastic = None  # hyperelastic: no history
+    load_increment = 0.0
+
+    def __init__(self, body: Body, scene: Scene):
+        self.body = body
+        msh = scene.mesh.mesh
+        self.mesh = msh
+        self.material: NonCrimpFabric = body.material
+        self.quadrature_degree = FULL_DEGREE
+        self.V = fem.functionspace(msh, ("Lagrange", body.degree, (3,)))
+        self.u = fem.Function(self.V, name="u")
+        tdim = msh.topology.dim
+        imap = msh.topology.index_map(tdim)
+        self.n_local_cells = imap.size_local
+        self.cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+        self.n_points = len(self.cells) * 8
+        self.kernel_seconds = 0.0
+        self.dx = ufl.Measure("dx", domain=msh, metadata={"quadrature_degree": FULL_DEGREE})
+        # The fibre integral gets its own subdomain id, hence its own kernel: FFCx 0.11
+        # mixes up shared subexpressions when one cell kernel holds integrals of
+        # different degrees (the shear term came out wrong by 1e-6 relative at a perturbed
+        # state, and the Jacobian lost consistency: tests/test_fabric_cases.py).
+        everywhere = mesh.meshtags(msh, tdim, self.cells, np.ones(len(self.cells), np.int32))
+        self.dx_fibre = ufl.Measure("dx", domain=msh, subdomain_data=everywhere,
+                                    subdomain_id=1,
+                                    metadata={"quadrature_degree": FIBRE_DEGREE})
+        F = self.deformation_gradient()
+        mat = self.material
+        self.energy = ((mat.shear_energy(F) + mat.matrix_energy(F)) * self.dx
+                       + mat.fibre_energy(F) * self.dx_fibre)
+        # outputs: cell-centre shear angle [deg] and wrinkling indicator
+        W = fem.functionspace(msh, ("DG", 0))
+        self.shear_angle = fem.Function(W, name="shear_angle_deg")
+        self.wrinkling = fem.Function(W, name="wrinkling")
+        gamma = mat.shear_angle(F)
+        pts = W.element.interpolation_points
+        self._gamma_expr = fem.Expression(gamma * 180.0 / np.pi, pts)
+        self._wrinkle_expr = fem.Expression(mat.wrinkling_indicator(gamma), pts)
+        self._detF_expr = fem.Expression(ufl.det(F), pts)
+
+    def deformation_gradient(self):
+        """UFL deformation gradient."""
+        return ufl.Identity(3) + ufl.grad(self.u)
+
+    def residual(self, v) -> ufl.Form:
+        """Internal virtual work: the first variation of the strain energy."""
+        return ufl.derivative(self.energy, self.u, v)
+
+    def jacobian(self, du, v) -> ufl.Form:
+        """Second variation of the strain energy."""
+        return ufl.derivative(self.residual(v), self.u, du)
+
+    def update_material(self, want_tangent: bool = True) -> None:
+        """Nothing to evaluate outside the forms (kept for the solver's interface)."""
+
+    def invalidate(self) -> None:
+        """No cached evaluation (kept for the solver's interface)."""
+
+    def contact_stiffness(self) -> float:
+        """Through-thickness modulus of the layer [MPa] (sets default contact penalties)."""
+        m = self.material
+        return m.bulk_modulus + 4.0 * m.shear_modulus / 3.0 + m.transverse_shear_modulus
+
+    # -- outputs -------------------------------------------------------------------------
+    def update_output(self) -> None:
+        """Evaluate the shear angle and wrinkling indicator at the cell centres."""
+        self.shear_angle.interpolate(self._gamma_expr)
+        self.wrinkling.interpolate(self._wrinkle_expr)
+
+    def output_fields(self) -> dict[str, list[fem.Function]]:
+        """ParaView fields besides the displacement: file stem -> functions."""
+        return {"shear_angle": [self.shear_angle, self.wrinkling]}
+
+    def min_det_F(self) -> float:
+        """Smallest Jacobian determinant at the cell centres, over all ranks."""
+        values = self._detF_expr.eval(self.mesh, self.cells[: self.n_local_cells])
+        local = float(values.min()) if values.size else np.inf
+        return self.mesh.comm.allreduce(local, op=MPI.MIN)
+
+    def shear_range_deg(self) -> tuple[float, float]:
+        """(min, max) cell-centre shear angle [deg] over all ranks (call update first)."""
+        g = self.shear_angle.x.array[: self.n_local_cells]
+        lo = self.mesh.comm.allreduce(float(g.min(initial=np.inf)), op=MPI.MIN)
+        hi = self.mesh.comm.allreduce(float(g.max(initial=-np.inf)), op=MPI.MAX)
+        return lo, hi
