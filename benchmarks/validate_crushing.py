@@ -1,7 +1,13 @@
-"""Square-punch crushing with the shipped (softening) curve: the effect of the viscous
-regularisation on the answer. Writes docs/validation.md's crushing section.
+"""Square-punch crushing (`core_crushing`): writes docs/validation.md's crushing section.
 
-Run: ``python benchmarks/validate_crushing.py`` (about 6 minutes).
+1. The default run (8 x 8 x 6 quarter mesh, eta = 0.003 MPa), serial and on 2 ranks: the
+   paper's metrics and the section PNG.
+2. The viscous regularisation's effect (6 x 6 x 4 mesh): eta from 0.02 MPa down to 0.
+   The punch force of a crushing core oscillates as layers of elements collapse one after
+   another, so the table gives the peak and the mean force over 2-10 mm of stroke; the
+   mean is extrapolated linearly to eta = 0 from the two smallest eta that converged.
+
+Run: ``python benchmarks/validate_crushing.py`` (about 15 minutes on 2 cores).
 """
 
 from __future__ import annotations
@@ -10,42 +16,85 @@ import shutil
 import tempfile
 from pathlib import Path
 
+import numpy as np
 from _report import REPO, run_case_process, update_section
 
-SETS = ("cells=6,6,4", "max_step=0.05")
+ETAS = (0.02, 0.01, 0.005, 0.003, 0.002, 0.0)
+
+
+def _mean_force(out: Path, stroke: float = 10.0) -> float:
+    """Mean punch force [N] over 2 mm to the end of the stroke (trapezoid in stroke)."""
+    h = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    t, f = h["t"], 4 * h["force_punch_z_N"]
+    keep = t >= 0.2
+    if keep.sum() < 2:
+        return float("nan")
+    return float(np.trapezoid(f[keep], t[keep]) / (t[keep][-1] - t[keep][0]))
 
 
 def main() -> None:
-    lines = ["## Square-punch crushing, `core_crushing` (issue #3, in progress)", "",
-             "Quarter model, 6 x 6 x 4 hexahedra, transversely isotropic core with the shipped "
-             "C365 estimate (peak 0.40 MPa, flat plateau), friction 0.36. Without "
-             "regularisation Newton stalls past the peak (0.65 mm of stroke); the viscous "
-             "regularisation eta (docs/theory.md) carries it through, at the price of an "
-             "overstress that this table measures. `python benchmarks/validate_crushing.py`.",
-             "", "| eta [MPa] | status | stroke [mm] | punch force max [N] | crushing depth [mm] "
-             "| plastic strain under / outside punch | edge draw-in [mm] | penetration / "
-             "tolerance [mm] | Newton iterations | wall [s] |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["## Square-punch crushing, `core_crushing` (issue #3)", "",
+             "Quarter model, transversely isotropic core with the shipped C365 estimate "
+             "(peak 0.40 MPa, plateau 0.25 MPa), friction 0.36, 10 mm stroke. "
+             "`python benchmarks/validate_crushing.py`.", "",
+             "| mesh | ranks | status | punch force max [N] | mean force 2-10 mm [N] "
+             "| crushed volume [mm^3] | crushing depth [mm] | plastic strain under / outside "
+             "punch | edge draw-in [mm] | penetration / tolerance [mm] | Newton/step "
+             "| wall [s] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        for eta in (0.0, 0.02, 0.1):
-            out = tmp / f"e{eta}"
-            s = run_case_process("core_crushing", out, sets=SETS + (f"viscosity={eta}",),
-                                 allow_failure=True)
+        for ranks in (1, 2):
+            out = tmp / f"default{ranks}"
+            s = run_case_process("core_crushing", out, ranks, allow_failure=True)
             m = s["metrics"]
             lines.append(
-                f"| {eta} | {s['status']} | {10 * s['load_parameter_reached']:.2f} "
-                f"| {m['punch_force_max_N']:.0f} | {m['crushing_depth_mm']:.1f} "
+                f"| 8,8,6 | {ranks} | {s['status']} | {m['punch_force_max_N']:.0f} "
+                f"| {_mean_force(out):.0f} | {m['crushed_volume_mm3']:.0f} "
+                f"| {m['crushing_depth_mm']:.1f} "
                 f"| {m['mean_plastic_strain_under_punch']:.3f} / "
-                f"{m['mean_plastic_strain_outside_punch']:.3f} | {m['edge_draw_in_mm']:.2f} "
+                f"{m['mean_plastic_strain_outside_punch']:.4f} | {m['edge_draw_in_mm']:.2f} "
                 f"| {m['max_penetration_mm']:.3f} / {m['penetration_tolerance_mm']:.3f} "
-                f"| {s['timing']['newton_iterations']} | {s['timing']['wall_s']:.0f} |")
-            if eta == 0.02 and (out / "section_plastic_strain.png").exists():
-                shutil.copy(out / "section_plastic_strain.png",
-                            REPO / "docs" / "figures" / "core_crushing_section.png")
-    lines += ["", "![crushing section, eta = 0.02](figures/core_crushing_section.png)", "",
-              "The force depends on eta (the overstress grows with it): the rate-independent "
-              "limit needs a study in eta and mesh, still open."]
+                f"| {s['timing']['newton_per_step']:.1f} | {s['timing']['wall_s']:.0f} |")
+            if ranks == 1:
+                for png in ("section_plastic_strain.png", "plastic_strain_3d.png",
+                            "punch_force.png"):
+                    if (out / png).exists():
+                        shutil.copy(out / png, REPO / "docs" / "figures" / f"core_crushing_{png}")
+        lines += ["", "![section](figures/core_crushing_section_plastic_strain.png)",
+                  "![punch force](figures/core_crushing_punch_force.png)", "",
+                  "### Viscous regularisation: what eta adds (6 x 6 x 4 mesh)", "",
+                  "| eta [MPa] | status | stroke [mm] | punch force max [N] "
+                  "| mean force 2-10 mm [N] | mean vs eta -> 0 | crushed volume [mm^3] "
+                  "| Newton/step | wall [s] |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        study = []
+        for eta in ETAS:
+            out = tmp / f"e{eta}"
+            s = run_case_process("core_crushing", out, allow_failure=True,
+                                 sets=("cells=6,6,4", "max_step=0.05", f"viscosity={eta}"))
+            study.append((eta, s, _mean_force(out) if s["status"] == "completed" else None))
+        done = sorted((e, f) for e, s, f in study if f is not None)
+        exact = next((f for e, f in done if e == 0.0), None)
+        if exact is None and len(done) >= 2:
+            (e1, f1), (e2, f2) = done[:2]
+            exact = f1 - e1 * (f2 - f1) / (e2 - e1)
+        for eta, s, mean in study:
+            m = s["metrics"]
+            err = f"{mean / exact - 1:+.1%}" if exact and mean is not None else "-"
+            lines.append(f"| {eta} | {s['status']} | {10 * s['load_parameter_reached']:.2f} "
+                         f"| {m['punch_force_max_N']:.0f} "
+                         f"| {'-' if mean is None else f'{mean:.0f}'} | {err} "
+                         f"| {m['crushed_volume_mm3']:.0f} "
+                         f"| {s['timing']['newton_per_step']:.1f} "
+                         f"| {s['timing']['wall_s']:.0f} |")
+        if exact:
+            lines.append(f"| -> 0 | | | | {exact:.0f} | reference | | | |")
+    lines += ["", "Without regularisation (eta = 0) Newton stalls where the layers under the "
+              "punch pass the curve's peak together (the discrete problem bifurcates); the "
+              "viscous term (docs/theory.md) selects one path. Its overstress grows with "
+              "eta: the default 0.003 MPa is chosen from this table. The peak force is "
+              "noisy (single layers collapsing); the mean force is the converging quantity."]
     update_section("crushing", "\n".join(lines), REPO / "docs" / "validation.md")
     print("\n".join(lines))
 

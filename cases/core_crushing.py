@@ -55,7 +55,7 @@ class Params:
     stroke: float = 10.0
     gap: float = 0.0  # initial clearance between punch and core; the punch travels gap + stroke
     friction: float = TOOL_CORE_FRICTION
-    cells: tuple[int, ...] = (12, 12, 8)
+    cells: tuple[int, ...] = (8, 8, 6)
     elasticity: Literal["transverse", "isotropic"] = "transverse"
     curve: str | None = None
     viscosity: float = 0.003  # MPa: viscous regularisation (docs/validation.md, eta study)
