@@ -193,6 +193,27 @@ def plastic_strain_pictures(model, out, section: str, title: str, tools_3d=None)
     ]
 
 
+def shear_angle_picture(model, out, title: str, name: str = "shear_angle.png") -> list:
+    """Top view of the deformed fabric body coloured by its signed shear angle [deg].
+
+    Collective: written on rank 0 and returned there (empty elsewhere).
+    """
+    from pathlib import Path
+
+    from forming.contact.render import render_3d
+
+    body = model.body
+    body.update_output()
+    n = body.n_local_cells
+    lo, hi = body.shear_range_deg()
+    grid = deformed_grid(body, {"shear angle [deg]": body.shear_angle.x.array[:n].copy()})
+    if model.comm.rank != 0:
+        return []
+    lim = max(abs(lo), abs(hi), 1e-6)
+    return [render_3d(Path(out) / name, grid, "shear angle [deg]", [], (0, 1, 0, 1, 0, 1), 1.0,
+                      title=title, clim=(-lim, lim), view="xy", cmap="coolwarm")]
+
+
 def contact_metrics(rec, model) -> dict[str, float]:
     """Largest penetration over the run and the tightest tolerance of the scene's pairs."""
     return {

@@ -53,3 +53,17 @@ def test_picture_frame_reproduces_input_curve(tmp_path):
     assert m["shear_field_spread_deg"] < 1e-6
     assert (tmp_path / "picture_frame.png").is_file()
     assert (tmp_path / "shear_angle.bp").is_dir()
+
+
+def test_bias_extension_follows_pin_jointed_kinematics(tmp_path):
+    """1:2 specimen pulled until the kinematic central angle is 45 deg (below locking):
+    the computed central shear angle stays within 2 deg of
+    gamma = pi/2 - 2 acos((D + d) / (sqrt(2) D)) at every step; the clamped triangles stay
+    unsheared (zone A). A larger error would mean fibre locking or fibre stretch."""
+    s = run_case("bias_extension", tmp_path, ["element=3", "max_step=0.1"])
+    m = s["metrics"]
+    assert s["status"] == "completed"
+    assert m["central_shear_error_deg"] < 2.0
+    assert m["kinematic_shear_final_deg"] == pytest.approx(45.0)
+    assert abs(m["shear_min_deg"]) < 1.0  # zone A at the clamps
+    assert (tmp_path / "shear_angle.png").is_file()

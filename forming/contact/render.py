@@ -263,7 +263,8 @@ def section_plot(path: Path, polygons: list[np.ndarray], values: np.ndarray,
 
 def render_3d(path: Path, grid: pyvista.UnstructuredGrid, scalars: str,
               tools: list[tuple[Shape, np.ndarray]], bounds: Bounds, resolution: float, *,
-              title: str, clim: tuple[float, float] | None = None) -> Path:
+              title: str, clim: tuple[float, float] | None = None,
+              view: str = "isometric", cmap: str = "viridis") -> Path:
     """Save an off-screen isometric picture of a body coloured by an array, with the tools.
 
     Args:
@@ -275,6 +276,8 @@ def render_3d(path: Path, grid: pyvista.UnstructuredGrid, scalars: str,
         resolution: Spacing of the tools' sampling grid [mm].
         title: Title written on the picture.
         clim: Colour limits (default: the array's range).
+        view: ``"isometric"`` or ``"xy"`` (from above, for a blank's in-plane fields).
+        cmap: Matplotlib colour map name.
 
     Returns:
         ``path``.
@@ -283,14 +286,17 @@ def render_3d(path: Path, grid: pyvista.UnstructuredGrid, scalars: str,
     plotter = pyvista.Plotter(off_screen=True, window_size=(1200, 900))
     try:
         plotter.set_background("white")
-        plotter.add_mesh(grid, scalars=scalars, cmap="viridis", clim=clim,
+        plotter.add_mesh(grid, scalars=scalars, cmap=cmap, clim=clim,
                          scalar_bar_args=_SCALAR_BAR | {"title": scalars})
         for shape, offset in tools:
             surface = _translated(tool_surface(shape, bounds, resolution), offset)
             if surface.n_points:
                 plotter.add_mesh(surface, color="grey", opacity=0.35)
         plotter.add_title(title, font_size=12, color="black")
-        plotter.view_isometric()
+        if view == "xy":
+            plotter.view_xy()
+        else:
+            plotter.view_isometric()
         plotter.screenshot(str(path))
     finally:
         plotter.close()
