@@ -61,7 +61,7 @@ class Params:
     elasticity: Literal["transverse", "isotropic"] = "isotropic"
     curve: str | None = None
     viscosity: float = 0.003  # MPa: viscous regularisation (docs/validation.md, eta study)
-    max_step: float = 0.02
+    max_step: float = 0.01
     min_step: float = 1e-4
     linear_solver: Literal["mumps", "gamg"] = "mumps"
 
