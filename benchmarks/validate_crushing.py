@@ -57,8 +57,7 @@ def main() -> None:
                 f"| {m['max_penetration_mm']:.3f} / {m['penetration_tolerance_mm']:.3f} "
                 f"| {s['timing']['newton_per_step']:.1f} | {s['timing']['wall_s']:.0f} |")
             if ranks == 1:
-                for png in ("section_plastic_strain.png", "plastic_strain_3d.png",
-                            "punch_force.png"):
+                for png in ("section_plastic_strain.png", "punch_force.png"):
                     if (out / png).exists():
                         shutil.copy(out / png, REPO / "docs" / "figures" / f"core_crushing_{png}")
         lines += ["", "![section](figures/core_crushing_section_plastic_strain.png)",
