@@ -115,6 +115,10 @@ class SolidBody:
         self.plastic: PlasticState | None = (
             PlasticState.zeros(self.n_points) if self.material.plastic else None
         )
+        self._evp_cells = None  # cell means of the plastic strain (output)
+        if self.plastic is not None:
+            self._evp_cells = fem.Function(fem.functionspace(msh, ("DG", 0)),
+                                           name="volumetric_plastic_strain")
         self._evaluated_at: np.ndarray | None = None
         self.load_increment = 0.0  # step in the load parameter (viscous regularisation)
         self.kernel_seconds = 0.0
@@ -195,17 +199,12 @@ class SolidBody:
     # -- outputs -------------------------------------------------------------------------
     def output_fields(self) -> dict[str, list[fem.Function]]:
         """ParaView fields besides the displacement: file stem -> functions."""
-        if self.plastic is None:
-            return {}
-        if not hasattr(self, "_evp_cells"):
-            W = fem.functionspace(self.mesh, ("DG", 0))
-            self._evp_cells = fem.Function(W, name="volumetric_plastic_strain")
-        return {"plastic_strain": [self._evp_cells]}
+        return {} if self._evp_cells is None else {"plastic_strain": [self._evp_cells]}
 
     def update_output(self) -> None:
         """Cell means of the converged plastic strain into the output fields."""
         if self.plastic is not None:
-            f = self.output_fields()["plastic_strain"][0]
+            f = self._evp_cells
             f.x.array[: self.n_local_cells] = self.cell_average(self.plastic.evp)
             f.x.scatter_forward()
 
