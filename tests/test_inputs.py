@@ -109,3 +109,27 @@ def test_set_parsing():
 def test_unknown_case():
     with pytest.raises(InputError, match=r"unknown case 'hemisphear'; known: .*core_compression"):
         find_case("hemisphear")
+
+
+def test_case_parameters_out_of_range(tmp_path):
+    """Case parameters outside their physical range name the parameter."""
+    from forming.case import run_case
+
+    for case, assignment, field in (("core_crushing", "gap=-1", "gap"),
+                                    ("picture_frame", "shear_max_deg=85", "shear_max_deg"),
+                                    ("bias_extension", "aspect=1.5", "aspect")):
+        with pytest.raises(InputError, match=rf"^{field}: "):
+            run_case(case, tmp_path / case, [assignment])
+    with pytest.raises(InputError, match=r"newton.force_rtol|solver.force_rtol"):
+        NewtonOptions(force_rtol=-1.0)
+
+
+def test_affine_displacement_components():
+    import numpy as np
+
+    from forming.scene import AffineDisplacement
+
+    with pytest.raises(InputError, match=r"displacement\[xmin\].components"):
+        AffineDisplacement("ply", "xmin", lambda t: np.zeros((3, 3)), components=(3,))
+    with pytest.raises(InputError, match=r"displacement\[xmin\].gradient"):
+        AffineDisplacement("ply", "xmin", lambda t: np.zeros(3))
