@@ -314,12 +314,6 @@ class Model:
         """Load parameter of the current state."""
         return self._t
 
-    def force_scale(self) -> float:
-        """Largest external force on the body [N]: Dirichlet reactions and tool forces."""
-        forces = [abs(v) for v in self.dirichlet.reactions(self.comm).values()]
-        forces += [float(np.linalg.norm(c.force())) for c in self.contacts]
-        return max(forces, default=0.0)
-
     def bounding_box(self) -> np.ndarray:
         """Reference bounding box of the mesh, (min xyz, max xyz), over all ranks."""
         x = self.scene.mesh.mesh.geometry.x

@@ -266,11 +266,12 @@ class ImplicitSolver:
         return StepResult(ok, iterations, list(self._residuals), reason,
                           time.perf_counter() - t0, aug)
 
-    def accept(self, u_before: np.ndarray) -> None:
-        """Remember the previous converged displacement (predictor) and force scale.
+    def accept(self, u_before: np.ndarray, force_scale: float = 0.0) -> None:
+        """Remember the step's converged state for the next step.
 
-        Call after the model committed the step.
+        Args:
+            u_before: Displacement before the step (for the extrapolating predictor).
+            force_scale: Largest reaction or tool force of the step [N] (``force_rtol``).
         """
         self._u_prev = u_before
-        if self.options.force_rtol > 0.0:
-            self._force_scale = self.model.force_scale()
+        self._force_scale = force_scale
