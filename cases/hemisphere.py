@@ -13,7 +13,14 @@ the curved punch (issue #3). The shipped curve softens after its peak; a small v
 regularisation (``viscosity``, 0.003 MPa) lets Newton follow the crushing, within about 2%
 of the extrapolated rate-independent force (docs/validation.md).
 
-Run: ``python cases/hemisphere.py --set blank_holder=true``.
+With ``--set skins=true`` the blank is the full sandwich: the core between a bottom and a
+top skin of FCIM359 non-crimp fabric (+/-45 deg, 0.4 mm per ply), each skin its own body
+sliding on the core (friction 0.52, separation allowed) and on the tools (0.23). The
+metrics add the shear-angle range of each skin, the area fraction beyond the wrinkling
+angles (+42 / -50 deg) and the skin-core slip; ``shear_angle_skin_top.png`` maps the top
+skin's shear.
+
+Run: ``python cases/hemisphere.py --set blank_holder=true`` (add ``skins=true``).
 """
 
 from __future__ import annotations
@@ -28,6 +35,8 @@ from mpi4py import MPI
 
 from forming.case import main
 from forming.contact.shapes import AnnularPlate, HemisphericalPunch
+from forming.errors import InputError
+from forming.materials.fabric import NonCrimpFabric
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
 from forming.post import (
@@ -35,13 +44,17 @@ from forming.post import (
     plastic_field,
     plastic_strain_pictures,
     punch_force_plot,
+    shear_angle_picture,
 )
 from forming.run import Job
-from forming.scene import Body, Contact, Displacement, Linear, Scene, Tool
+from forming.sandwich import Outline, sandwich_blank
+from forming.scene import Body, Contact, Displacement, Interface, Linear, Scene, Tool
 from forming.solver.implicit import NewtonOptions
 from forming.solver.stepping import StepControl
 
 TOOL_CORE_FRICTION = 0.36  # paper, section "Friction between materials"
+FABRIC_CORE_FRICTION = 0.52
+TOOL_FABRIC_FRICTION = 0.23
 
 
 @dataclass(frozen=True)
@@ -64,29 +77,61 @@ class Params:
     max_step: float = 0.01
     min_step: float = 1e-4
     linear_solver: Literal["mumps", "gamg"] = "mumps"
+    skins: bool = False
+    plies: int = 1
+    skin_thickness: float = 0.4
+    skin_friction: float = FABRIC_CORE_FRICTION
+    tool_skin_friction: float = TOOL_FABRIC_FRICTION
+    skin_stabilisation: float = 1e-3  # fraction of the interface penalty (docs/theory.md)
+    skin_smoothing: float = 0.0  # smoothed interface pressure ramp (docs/theory.md)
 
 
 def build(p: Params) -> Job:
     half, h = p.size / 2, p.thickness
-    mesh = box((half, half, h), tuple(p.cells), grading=(p.grading, p.grading, 1.0))
+    core = honeycomb_core(p.elasticity, curve=p.curve, viscosity=p.viscosity)
+    if p.skins:
+        if p.cells[0] != p.cells[1]:
+            raise InputError("cells", f"with skins the in-plane mesh is square: got {p.cells}")
+        mesh = sandwich_blank(Outline.rectangle(half, half), core_thickness=h,
+                              skin_thickness=p.skin_thickness, plies=p.plies,
+                              element_size=half / p.cells[0], core_layers=p.cells[2])
+        top, bottom = h + 2 * p.plies * p.skin_thickness, 0.0
+        fabric = NonCrimpFabric(thickness=p.skin_thickness)
+        bodies = (Body("core", core, region="core"),
+                  Body("skin_bottom", fabric, region="skin_bottom"),
+                  Body("skin_top", fabric, region="skin_top"))
+        upper, lower, mu = "skin_top", "skin_bottom", p.tool_skin_friction
+        interfaces = tuple(Interface(f"interface_{side}", "core", f"skin_{side}",
+                                     friction=p.skin_friction,
+                                     stabilisation=p.skin_stabilisation,
+                                     smoothing=p.skin_smoothing)
+                           for side in ("bottom", "top"))
+    else:
+        mesh = box((half, half, h), tuple(p.cells), grading=(p.grading, p.grading, 1.0))
+        top, bottom = h, 0.0
+        bodies = (Body("core", core),)
+        upper = lower = "core"
+        mu = p.friction
+        interfaces = ()
     R = p.punch_diameter / 2
     hole = p.die_diameter / 2
-    tools = [Tool("punch", HemisphericalPunch((0.0, 0.0, h), R, length=150.0),
+    tools = [Tool("punch", HemisphericalPunch((0.0, 0.0, top), R, length=150.0),
                   z=Linear(-p.stroke)),
-             Tool("die", AnnularPlate((0.0, 0.0, 0.0), hole, p.edge_radius, side=-1))]
-    contacts = [Contact("core", "top", "punch", friction=p.friction),
-                Contact("core", "bottom", "die", friction=p.friction)]
+             Tool("die", AnnularPlate((0.0, 0.0, bottom), hole, p.edge_radius, side=-1))]
+    contacts = [Contact(upper, "top", "punch", friction=mu),
+                Contact(lower, "bottom", "die", friction=mu)]
     if p.blank_holder:
-        tools.append(Tool("holder", AnnularPlate((0.0, 0.0, h), hole, p.edge_radius, side=1)))
-        contacts.append(Contact("core", "top", "holder", friction=p.friction))
+        tools.append(Tool("holder", AnnularPlate((0.0, 0.0, top), hole, p.edge_radius,
+                                                 side=1)))
+        contacts.append(Contact(upper, "top", "holder", friction=mu))
+    symmetry = tuple(d for b in bodies for d in (
+        Displacement(b.name, "xmin", x=0.0, reaction=False),
+        Displacement(b.name, "ymin", y=0.0, reaction=False)))
     scene = Scene(
-        name="hemisphere", mesh=mesh,
-        bodies=(Body("core", honeycomb_core(p.elasticity, curve=p.curve,
-                                                          viscosity=p.viscosity)),),
-        displacements=(Displacement("core", "xmin", x=0.0, reaction=False),
-                       Displacement("core", "ymin", y=0.0, reaction=False)),
-        tools=tuple(tools), contacts=tuple(contacts),
+        name="hemisphere", mesh=mesh, bodies=bodies, displacements=symmetry,
+        tools=tuple(tools), contacts=tuple(contacts), interfaces=interfaces,
     )
+    section = "core_edge_ymin" if p.skins else "ymin"
 
     def probe(model) -> dict[str, float]:
         return {"crushed_volume_mm3": 4 * plastic_field(model.body).crushed_volume()}
@@ -124,7 +169,33 @@ def build(p: Params) -> Job:
                                                    op=MPI.MIN),
             "edge_lift_max_mm": edge_lift,
             "punch_gap_max_mm": gap_max,
-        } | contact_metrics(rec, model)
+        } | contact_metrics(rec, model) | (skin_metrics(model) if p.skins else {})
+
+    def skin_metrics(model) -> dict:
+        out: dict = {}
+        lo_all, hi_all, wrinkled = np.inf, -np.inf, 0.0
+        for name in ("skin_bottom", "skin_top"):
+            body = model.bodies[name]
+            body.update_output()
+            lo, hi = body.shear_range_deg()
+            frac = body.wrinkle_area_fraction()
+            out |= {f"shear_min_deg_{name}": lo, f"shear_max_deg_{name}": hi,
+                    f"wrinkle_area_fraction_{name}": frac}
+            lo_all, hi_all = min(lo_all, lo), max(hi_all, hi)
+            wrinkled = max(wrinkled, frac)
+        slips = {f"skin_core_slip_max_mm_{itf.spec.other}": itf.max_slip()
+                 for itf in model.interfaces}
+        return {"shear_min_deg": lo_all, "shear_max_deg": hi_all,
+                "wrinkle_area_fraction": wrinkled,
+                "skin_core_slip_max_mm": max(slips.values())} | out | slips
+
+    def pictures(model, out: Path) -> list[Path]:
+        title = "Hemisphere" + (" + holder" if p.blank_holder else "")
+        pngs = plastic_strain_pictures(model, out, section, title, tools_3d=("punch",))
+        if p.skins:
+            pngs += shear_angle_picture(model, out, f"{title}: top skin shear angle [deg]",
+                                        "shear_angle_skin_top.png", body_name="skin_top")
+        return pngs
 
     def plots(rec, out: Path) -> list[Path]:
         title = "Hemisphere forming" + (" with blank holder" if p.blank_holder else "")
@@ -132,11 +203,12 @@ def build(p: Params) -> Job:
 
     return Job(scene=scene, steps=StepControl(initial=min(0.02, p.max_step), max=p.max_step,
                                  min=min(p.min_step, p.max_step)),
-               newton=NewtonOptions(linear_solver=p.linear_solver, line_search="bt"),
+               # with skins, full Newton steps: at the first touch every interface node sits
+               # at zero pressure, and backtracking crawled through the open/closed switches
+               newton=NewtonOptions(linear_solver=p.linear_solver,
+                                    line_search="basic" if p.skins else "bt"),
                probe=probe, metrics=metrics, plots=plots, field_every=5,
-               pictures=lambda model, out: plastic_strain_pictures(
-                   model, out, "ymin", "Hemisphere" + (" + holder" if p.blank_holder else ""),
-                   tools_3d=("punch",)))
+               pictures=pictures)
 
 
 if __name__ == "__main__":

@@ -20,10 +20,11 @@ from __future__ import annotations
 
 import numpy as np
 import ufl
-from dolfinx import fem, mesh  # noqa: I001
+from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from forming.domain import BodyDomain
 from forming.materials.fabric import NonCrimpFabric
 from forming.scene import Body, Scene
 
@@ -36,15 +37,17 @@ class FabricBody:
 
     Args:
         body: The scene's body; its material is a :class:`NonCrimpFabric`.
-        scene: The scene (mesh).
+        scene: The scene.
+        domain: Where the body lives (its mesh and measures).
     """
 
     plastic = None  # hyperelastic: no history
     load_increment = 0.0
 
-    def __init__(self, body: Body, scene: Scene):
+    def __init__(self, body: Body, scene: Scene, domain: BodyDomain):
         self.body = body
-        msh = scene.mesh.mesh
+        self.domain = domain
+        msh = domain.mesh
         self.mesh = msh
         self.material: NonCrimpFabric = body.material
         self.quadrature_degree = FULL_DEGREE
@@ -56,15 +59,12 @@ class FabricBody:
         self.cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
         self.n_points = len(self.cells) * 8
         self.kernel_seconds = 0.0
-        self.dx = ufl.Measure("dx", domain=msh, metadata={"quadrature_degree": FULL_DEGREE})
         # The fibre integral gets its own subdomain id, hence its own kernel: FFCx 0.11
         # mixes up shared subexpressions when one cell kernel holds integrals of
         # different degrees (the shear term came out wrong by 1e-6 relative at a perturbed
         # state, and the Jacobian lost consistency: tests/test_fabric_cases.py).
-        everywhere = mesh.meshtags(msh, tdim, self.cells, np.ones(len(self.cells), np.int32))
-        self.dx_fibre = ufl.Measure("dx", domain=msh, subdomain_data=everywhere,
-                                    subdomain_id=1,
-                                    metadata={"quadrature_degree": FIBRE_DEGREE})
+        self.dx, self.dx_fibre = domain.dx(FULL_DEGREE, FIBRE_DEGREE)
+        self.own_dx = domain.own_dx(FULL_DEGREE)
         F = self.deformation_gradient()
         mat = self.material
         self.energy = ((mat.shear_energy(F) + mat.matrix_energy(F)) * self.dx
@@ -73,6 +73,9 @@ class FabricBody:
         W = fem.functionspace(msh, ("DG", 0))
         self.shear_angle = fem.Function(W, name="shear_angle_deg")
         self.wrinkling = fem.Function(W, name="wrinkling")
+        dx0 = ufl.Measure("dx", domain=msh, metadata={"quadrature_degree": 0})
+        self._wrinkle_forms = (fem.form(self.wrinkling * dx0),
+                               fem.form(fem.Constant(msh, 1.0) * dx0))
         gamma = mat.shear_angle(F)
         pts = W.element.interpolation_points
         self._gamma_expr = fem.Expression(gamma * 180.0 / np.pi, pts)
@@ -117,6 +120,16 @@ class FabricBody:
         values = self._detF_expr.eval(self.mesh, self.cells[: self.n_local_cells])
         local = float(values.min()) if values.size else np.inf
         return self.mesh.comm.allreduce(local, op=MPI.MIN)
+
+    def wrinkle_area_fraction(self) -> float:
+        """Fraction of the layer's reference area beyond a wrinkling angle (call update first).
+
+        Cell-centre indicator, weighted by the reference cell volume (a one-element-thick
+        layer: proportional to area).
+        """
+        num, den = (self.mesh.comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
+                    for f in self._wrinkle_forms)
+        return num / den
 
     def shear_range_deg(self) -> tuple[float, float]:
         """(min, max) cell-centre shear angle [deg] over all ranks (call update first)."""

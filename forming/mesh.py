@@ -33,6 +33,10 @@ class MeshData:
         dim, tag = self._lookup(name, 2)
         return self.facet_tags.find(tag)
 
+    def facet_tag_ids(self, name: str) -> tuple[int, ...]:
+        """Facet tags of the surface group ``name`` (for ``ds(subdomain_id=...)``)."""
+        return (self._lookup(name, 2)[1],)
+
     def cells(self, name: str) -> np.ndarray:
         """Local cell indices of the volume group ``name``."""
         dim, tag = self._lookup(name, 3)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import basix.ufl
@@ -19,6 +20,7 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from forming.domain import BodyDomain
 from forming.materials.solids import PointMaterial, evaluate
 from forming.scene import AffineDisplacement, Body, Displacement, Scene
 
@@ -80,12 +82,14 @@ class SolidBody:
 
     Args:
         body: The scene's body.
-        scene: The scene (mesh and quadrature degree).
+        scene: The scene (quadrature degree).
+        domain: Where the body lives (its mesh and measures).
     """
 
-    def __init__(self, body: Body, scene: Scene):
+    def __init__(self, body: Body, scene: Scene, domain: BodyDomain):
         self.body = body
-        msh = scene.mesh.mesh
+        self.domain = domain
+        msh = domain.mesh
         self.mesh = msh
         self.material: PointMaterial = body.material
         q = scene.quadrature_degree or (2 if body.degree == 1 else 4)
@@ -105,7 +109,8 @@ class SolidBody:
         self.cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
         self._qdofs = self.QS.dofmap.list[self.cells].ravel()
         self.n_points = self._qdofs.size
-        self.dx = ufl.Measure("dx", domain=msh, metadata={"quadrature_degree": q})
+        (self.dx,) = domain.dx(q)  # solve forms: on the scene mesh
+        self.own_dx = domain.own_dx(q)  # post-processing: on the body's mesh
         F = self.deformation_gradient()
         C = F.T * F
         self._C_expr = fem.Expression(
@@ -225,22 +230,32 @@ class SolidBody:
 
 
 class DirichletSet:
-    """Prescribed displacements of a scene with their reaction-force forms."""
+    """Prescribed displacements of a scene with their reaction-force forms.
 
-    def __init__(self, scene: Scene, bodies: dict[str, SolidBody]):
+    Args:
+        scene: The scene.
+        bodies: Its discrete bodies by name.
+        residual: ``residual(body_name, w)``: the body's full residual (internal forces
+            minus every external force on it) tested with ``w``; a reaction is its value
+            for ``w`` = 1 on the face's dofs of one component.
+    """
+
+    def __init__(self, scene: Scene, bodies: dict, residual: Callable):
         self.items: list[tuple[Displacement, int, fem.Constant]] = []
         self.bcs: list[fem.DirichletBC] = []
+        self.bc_bodies: list[str] = []  # the body of each entry of ``bcs``
         self._reaction_forms: dict[str, fem.Form] = {}
         self.affine: list[tuple[AffineDisplacement, int, fem.Function]] = []
         for d in scene.displacements:
             body = bodies[d.body]
-            facets = scene.mesh.facets(d.region)
+            facets = body.domain.facets(d.region)
             if isinstance(d, AffineDisplacement):
                 for comp in d.components:
                     Vc, _ = body.V.sub(comp).collapse()
                     u_bc = fem.Function(Vc)
                     dofs = fem.locate_dofs_topological((body.V.sub(comp), Vc), 2, facets)
                     self.bcs.append(fem.dirichletbc(u_bc, dofs, body.V.sub(comp)))
+                    self.bc_bodies.append(d.body)
                     self.affine.append((d, comp, u_bc))
                 continue
             for comp, _path in d.components():
@@ -248,6 +263,7 @@ class DirichletSet:
                 dofs = fem.locate_dofs_topological(Vc, 2, facets)
                 const = fem.Constant(body.mesh, 0.0)
                 self.bcs.append(fem.dirichletbc(const, dofs, Vc))
+                self.bc_bodies.append(d.body)
                 self.items.append((d, comp, const))
                 if d.reaction:
                     w = fem.Function(body.V)
@@ -255,7 +271,10 @@ class DirichletSet:
                     dofs_sub = fem.locate_dofs_topological((body.V.sub(comp), Vsub), 2, facets)[0]
                     w.x.array[dofs_sub] = 1.0
                     key = f"{d.region}_{'xyz'[comp]}"
-                    self._reaction_forms[key] = fem.form(body.residual(w))
+                    if len(bodies) > 1:
+                        key = f"{d.body}_{key}"
+                    self._reaction_forms[key] = fem.form(
+                        residual(d.body, w), entity_maps=_entity_maps(bodies) or None)
 
     def set_load(self, t: float) -> None:
         """Set the prescribed values at load parameter ``t``."""
@@ -273,41 +292,73 @@ class DirichletSet:
         }
 
 
-def make_body(body: Body, scene: Scene):
+def _entity_maps(bodies: dict) -> list:
+    """Entity maps of every body with a mesh of its own."""
+    return [m for b in bodies.values() for m in b.domain.entity_maps]
+
+
+def _extent_min(msh) -> float:
+    """Smallest edge of the bounding box of a mesh over all ranks [mm]."""
+    x = msh.geometry.x
+    lo = [msh.comm.allreduce(float(x[:, i].min(initial=np.inf)), op=MPI.MIN) for i in range(3)]
+    hi = [msh.comm.allreduce(float(x[:, i].max(initial=-np.inf)), op=MPI.MAX) for i in range(3)]
+    return float(min(h - lo_ for lo_, h in zip(lo, hi, strict=True)))
+
+
+def make_body(body: Body, scene: Scene, domain: BodyDomain):
     """The discrete body for a scene body: a fabric layer or a (plastic) solid."""
     from forming.fabric_body import FabricBody
     from forming.materials.fabric import NonCrimpFabric
 
     if isinstance(body.material, NonCrimpFabric):
-        return FabricBody(body, scene)
-    return SolidBody(body, scene)
+        return FabricBody(body, scene, domain)
+    return SolidBody(body, scene, domain)
 
 
 class Model:
-    """The discrete model of a scene (one body in this version)."""
+    """The discrete model of a scene: bodies, loads, tool contacts and interfaces.
+
+    Each body has its own displacement field; the residual is one form per body
+    (:meth:`residuals`), coupled through the interfaces between bodies.
+    """
 
     def __init__(self, scene: Scene):
+        from forming.contact.interface import InterfaceTerm, interface_entities
         from forming.contact.terms import ContactTerm
 
         self.scene = scene
-        self.comm = scene.mesh.mesh.comm
-        self._t = self._t_committed = 0.0
-        self.bodies = {b.name: make_body(b, scene) for b in scene.bodies}
-        self.dirichlet = DirichletSet(scene, self.bodies)
         md = scene.mesh
-        box = self.bounding_box()
-        extent = box[1] - box[0]
+        self.comm = md.mesh.comm
+        self._t = self._t_committed = 0.0
+        domains = {b.name: BodyDomain.create(md, b.region) for b in scene.bodies}
+        self.bodies = {b.name: make_body(b, scene, domains[b.name]) for b in scene.bodies}
+        self.entity_maps = _entity_maps(self.bodies)
+        thickness = {name: _extent_min(b.mesh) for name, b in self.bodies.items()}
         self.tractions = []
         for tr in scene.tractions:
+            body = self.bodies[tr.body]
             const = fem.Constant(md.mesh, np.zeros(3))
-            ds = ufl.Measure("ds", domain=md.mesh, subdomain_data=md.facet_tags,
-                             subdomain_id=md.names[tr.region][1])
-            self.tractions.append((tr, const, ds))
+            self.tractions.append((tr, const, body.domain.ds(tr.region)))
         self.contacts = [
-            ContactTerm(c, scene.tool(c.tool), self.bodies[c.body], md.facet_tags,
-                        md.facets(c.region), md.names[c.region][1], min(extent))
+            ContactTerm(c, scene.tool(c.tool), self.bodies[c.body], thickness[c.body])
             for c in scene.contacts
         ]
+        self.interfaces = []
+        if scene.interfaces:
+            data = [(i + 1, interface_entities(md, domains[itf.body], domains[itf.other],
+                                               itf.region))
+                    for i, itf in enumerate(scene.interfaces)]
+            dS = ufl.Measure("dS", domain=md.mesh, subdomain_data=data,
+                             metadata={"quadrature_rule": "vertex", "quadrature_degree": 1})
+            self.interfaces = [
+                InterfaceTerm(itf, self.bodies[itf.body], self.bodies[itf.other], dS(i + 1),
+                              min(thickness[itf.body], thickness[itf.other]))
+                for i, itf in enumerate(scene.interfaces)
+            ]
+        self.constraints = [*self.contacts, *self.interfaces]
+        tests = {n: ufl.TestFunction(b.V) for n, b in self.bodies.items()}
+        self.dirichlet = DirichletSet(
+            scene, self.bodies, lambda name, w: self._residual_terms(tests | {name: w})[name])
 
     @property
     def t(self) -> float:
@@ -334,23 +385,76 @@ class Model:
 
     @property
     def body(self) -> SolidBody:
-        """The single body."""
+        """The first body of the scene (the only one in a single-body scene)."""
         return next(iter(self.bodies.values()))
 
+    @property
+    def names(self) -> list[str]:
+        """Body names in block order."""
+        return list(self.bodies)
+
+    def _residual_terms(self, tests: dict) -> dict[str, ufl.Form]:
+        """Residual form of every body, tested with ``tests[name]``."""
+        forms = {}
+        for name, body in self.bodies.items():
+            v = tests[name]
+            form = body.residual(v)
+            for tr, const, ds in self.tractions:  # only when the scene has loads
+                if tr.body == name:
+                    form = form - ufl.dot(const, v) * ds
+            for c in self.contacts:
+                if c.contact.body == name:
+                    form = form + c.residual(v)
+            forms[name] = form
+        for itf in self.interfaces:
+            r1, r2 = itf.residuals(tests[itf.spec.body], tests[itf.spec.other])
+            forms[itf.spec.body] = forms[itf.spec.body] + r1
+            forms[itf.spec.other] = forms[itf.spec.other] + r2
+        return forms
+
+    def residuals(self) -> list[ufl.Form]:
+        """One residual form per body, in :attr:`names` order."""
+        tests = {n: ufl.TestFunction(b.V) for n, b in self.bodies.items()}
+        forms = self._residual_terms(tests)
+        return [forms[n] for n in self.names]
+
+    def jacobians(self) -> list[list[ufl.Form | None]]:
+        """Blocks ``J[i][j] = dF_i/du_j`` (None where body j does not enter F_i).
+
+        Diagonal blocks use each body's consistent tangent; contact, traction-free
+        interface and coupling terms are differentiated by UFL.
+        """
+        tests = {n: ufl.TestFunction(b.V) for n, b in self.bodies.items()}
+        trials = {n: ufl.TrialFunction(b.V) for n, b in self.bodies.items()}
+        blocks: dict[tuple[str, str], ufl.Form] = {}
+
+        def add(i: str, j: str, form) -> None:
+            blocks[i, j] = form if (i, j) not in blocks else blocks[i, j] + form
+
+        for name, body in self.bodies.items():
+            add(name, name, body.jacobian(trials[name], tests[name]))
+            for c in self.contacts:
+                if c.contact.body == name:
+                    add(name, name, ufl.derivative(c.residual(tests[name]), body.u,
+                                                   trials[name]))
+        for itf in self.interfaces:
+            a, b = itf.spec.body, itf.spec.other
+            r = dict(zip((a, b), itf.residuals(tests[a], tests[b]), strict=True))
+            for i in (a, b):
+                for j in (a, b):
+                    add(i, j, ufl.derivative(r[i], self.bodies[j].u, trials[j]))
+        return [[blocks.get((i, j)) for j in self.names] for i in self.names]
+
     def residual(self, v) -> ufl.Form:
-        """Residual of the single body, with its contact terms."""
-        form = self.body.residual(v)
-        for _tr, const, ds in self.tractions:  # only when the scene has loads
-            form = form - ufl.dot(const, v) * ds
-        for c in self.contacts:
-            form = form + c.residual(v)
-        return form
+        """Residual of a single-body scene, tested with ``v``."""
+        return self._residual_terms({self.names[0]: v})[self.names[0]]
 
     def jacobian(self, du, v) -> ufl.Form:
-        """Consistent Jacobian of :meth:`residual`."""
-        form = self.body.jacobian(du, v)
+        """Consistent Jacobian of :meth:`residual` (single-body scene)."""
+        body = self.body
+        form = body.jacobian(du, v)
         for c in self.contacts:
-            form = form + ufl.derivative(c.residual(v), self.body.u, du)
+            form = form + ufl.derivative(c.residual(v), body.u, du)
         return form
 
     def set_load(self, t: float) -> None:
@@ -362,7 +466,7 @@ class Model:
         self.dirichlet.set_load(t)
         for tr, const, _ds in self.tractions:
             const.value[:] = tr.value(t)
-        for c in self.contacts:
+        for c in self.constraints:
             c.set_load(t)
 
     def commit(self) -> None:
@@ -372,7 +476,7 @@ class Model:
             if b.plastic is not None:
                 b.plastic.commit()
             b.invalidate()
-        for c in self.contacts:
+        for c in self.constraints:
             c.commit()
 
     def snapshot(self) -> dict:
@@ -381,7 +485,7 @@ class Model:
             "bodies": [(b.u.x.array.copy(),
                         None if b.plastic is None else b.plastic.snapshot())
                        for b in self.bodies.values()],
-            "contacts": [c.snapshot() for c in self.contacts],
+            "contacts": [c.snapshot() for c in self.constraints],
         }
 
     def restore(self, snap: dict) -> None:
@@ -391,5 +495,5 @@ class Model:
             if hist is not None:
                 b.plastic.restore(hist)
             b.invalidate()
-        for c, cs in zip(self.contacts, snap["contacts"], strict=True):
+        for c, cs in zip(self.constraints, snap["contacts"], strict=True):
             c.restore(cs)

@@ -46,10 +46,16 @@ class Recorder:
             self.out.mkdir(parents=True, exist_ok=True)
         comm.barrier()
         self._writers: list = []
+        self._stems: list[str] = []
 
     def add_fields(self, name: str, functions: list[fem.Function]) -> None:
         """Write ``functions`` (one element type) to ``<name>.bp`` at every output."""
         self._writers.append(compat.vtx_writer(self.comm, self.out / f"{name}.bp", functions))
+        self._stems.append(name)
+
+    def field_stems(self) -> list[str]:
+        """Names of the ``.bp`` files written."""
+        return list(self._stems)
 
     def write_fields(self, t: float) -> None:
         """Write all registered fields at load parameter ``t``."""

@@ -46,7 +46,7 @@ class PlasticStrainField:
         Compiled forms are kept by signature: vary a ``fem.Constant``, not a float, to
         reuse one.
         """
-        ufl_form = integrand * self.body.dx
+        ufl_form = integrand * self.body.own_dx
         key = ufl_form.signature()
         if key not in self._forms:
             self._forms[key] = fem.form(ufl_form)
@@ -173,9 +173,10 @@ def plastic_strain_pictures(model, out, section: str, title: str, tools_3d=None)
     body = model.body
     evp = body.cell_average(body.plastic.evp)
     md = model.scene.mesh
-    axis = 1 if section == "ymin" else 0
+    axis = 1 if section.endswith("ymin") else 0
     in_plane = (0, 2) if axis == 1 else (1, 2)
-    sec = section_polygons(body, md.facet_tags, md.names[section][1], in_plane, evp)
+    sec = section_polygons(body, body.domain.facet_tags, md.facet_tag_ids(section)[0], in_plane,
+                           evp)
     grid = deformed_grid(body, {"volumetric_plastic_strain": evp})
     bounds, resolution = model.tool_bounds(), model.tool_resolution()  # collective
     if model.comm.rank != 0:
@@ -193,8 +194,16 @@ def plastic_strain_pictures(model, out, section: str, title: str, tools_3d=None)
     ]
 
 
-def shear_angle_picture(model, out, title: str, name: str = "shear_angle.png") -> list:
-    """Top view of the deformed fabric body coloured by its signed shear angle [deg].
+def shear_angle_picture(model, out, title: str, name: str = "shear_angle.png",
+                        body_name: str | None = None) -> list:
+    """Top view of a deformed fabric body coloured by its signed shear angle [deg].
+
+    Args:
+        model: The model.
+        out: Output folder.
+        title: Picture title.
+        name: File name.
+        body_name: The fabric body (default: the scene's first body).
 
     Collective: written on rank 0 and returned there (empty elsewhere).
     """
@@ -202,7 +211,7 @@ def shear_angle_picture(model, out, title: str, name: str = "shear_angle.png") -
 
     from forming.contact.render import render_3d
 
-    body = model.body
+    body = model.body if body_name is None else model.bodies[body_name]
     body.update_output()
     n = body.n_local_cells
     lo, hi = body.shear_range_deg()

@@ -57,8 +57,9 @@ class _Fields:
     def __init__(self, model: Model, recorder: Recorder):
         self.model = model
         self.recorder = recorder
-        body = model.body
-        recorder.add_fields("displacement", [body.u])
+        several = len(model.bodies) > 1
+        for name, body in model.bodies.items():
+            recorder.add_fields(f"displacement_{name}" if several else "displacement", [body.u])
         self.tools = None
         if model.scene.tools:
             # collective (reductions over ranks): on every rank, outside the rank-0 branch
@@ -69,17 +70,20 @@ class _Fields:
                 self.tools = ToolSeries(recorder.out,
                                         [(t.name, t.shape) for t in model.scene.tools],
                                         bounds, resolution)
-        self.body_fields = body.output_fields()
-        for stem, funcs in self.body_fields.items():
-            recorder.add_fields(stem, funcs)
+        self.stems: list[str] = []
+        for name, body in model.bodies.items():
+            for stem, funcs in body.output_fields().items():
+                stem = f"{stem}_{name}" if several else stem
+                recorder.add_fields(stem, funcs)
+                self.stems.append(stem)
 
     def write_tools(self, step: int, t: float) -> None:
         if self.tools is not None:
             self.tools.write(step, t, {tl.name: tl.offset(t) for tl in self.model.scene.tools})
 
     def update(self) -> None:
-        if self.body_fields:
-            self.model.body.update_output()
+        for body in self.model.bodies.values():
+            body.update_output()
 
 
 def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
@@ -100,6 +104,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
     newton_total = 0
     newton_accepted = 0
     status, reason = "completed", ""
+    slip_warned: set[str] = set()
 
     def record(res_its: int, res_norm: float, step_s: float) -> float:
         """Append a history row; return the step's force scale.
@@ -111,7 +116,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
             "step": stepper.n_accepted, "t": stepper.t, "dt": stepper.last_dt,
             "newton_iterations": res_its, "residual": res_norm, "step_wall_s": step_s,
         }
-        row["min_det_F"] = model.body.min_det_F()
+        row["min_det_F"] = min(b.min_det_F() for b in model.bodies.values())
         reactions = model.dirichlet.reactions(comm)
         row |= {f"reaction_{k}_N": v for k, v in reactions.items()}
         scale = max((abs(v) for v in reactions.values()), default=0.0)
@@ -121,6 +126,20 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
             row |= {f"force_{c.tool.name}_{'xyz'[i]}_N": f[i] for i in range(3)}
         if model.contacts:
             row["max_penetration_mm"] = max(c.penetration() for c in model.contacts)
+        for itf in model.interfaces:
+            key = itf.spec.region
+            row[f"penetration_{key}_mm"] = itf.penetration()
+            slip = itf.max_slip()
+            row[f"slip_{key}_mm"] = slip
+            row[f"normal_force_{key}_N"] = itf.normal_force()
+            if itf.stabilisation is not None:
+                row[f"stabilisation_force_{key}_N"] = itf.stabilisation_force()
+            if slip > itf.spec.slip_warning * itf.edge and key not in slip_warned:
+                slip_warned.add(key)
+                log.warning("interface %s: slip %.3g mm exceeds %.2g x the facet edge "
+                            "(%.3g mm); the small-sliding pairing loses accuracy from here",
+                            key, slip, itf.spec.slip_warning, itf.edge)
+        if model.constraints:
             row["augmentations"] = solver.last_augmentations
         if job.probe is not None:
             row |= job.probe(model)
@@ -147,7 +166,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
             stepper.accept(t_new, res.iterations)
             scale = record(res.iterations, res.residuals[-1] if res.residuals else 0.0,
                            res.seconds)
-            solver.accept(snap["bodies"][0][0], scale)
+            solver.accept([u for u, _hist in snap["bodies"]], scale)
             log.info("step %d t=%.5f dt=%.3g newton=%d |r|=%.2e %.2fs", stepper.n_accepted,
                      t_new, stepper.last_dt, res.iterations,
                      res.residuals[-1] if res.residuals else 0.0, res.seconds)
@@ -176,7 +195,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
 
     metrics = job.metrics(recorder, model) if job.metrics is not None else {}
     wall_s = time.perf_counter() - t_start
-    body = model.body
+    bodies = list(model.bodies.values())
     summary = {
         "case": case,
         "status": status,
@@ -187,17 +206,18 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
             "wall_s": wall_s, "jit_s": jit_s, "steps": stepper.n_accepted,
             "rejected_steps": stepper.n_rejected, "newton_iterations": newton_total,
             "newton_per_step": newton_accepted / max(stepper.n_accepted, 1),
-            "kernel_s": comm.allreduce(body.kernel_seconds) / comm.size,
+            "kernel_s": comm.allreduce(sum(b.kernel_seconds for b in bodies)) / comm.size,
             "assembly_s": comm.allreduce(solver.assembly_seconds) / comm.size,
         },
         "ranks": comm.size,
-        "mesh": {"cells": comm.allreduce(body.n_local_cells),
-                 "dofs": body.V.dofmap.index_map.size_global * 3,
-                 "quadrature_points_per_cell": body.n_points // max(len(body.cells), 1)},
+        "mesh": {"cells": sum(comm.allreduce(b.n_local_cells) for b in bodies),
+                 "dofs": sum(b.V.dofmap.index_map.size_global * 3 for b in bodies),
+                 "quadrature_points_per_cell": bodies[0].n_points
+                 // max(len(bodies[0].cells), 1)},
         "versions": compat.versions(),
         "parameters": parameters,
-        "outputs": ["summary.json", "history.csv", "displacement.bp"]
-        + [f"{stem}.bp" for stem in body.output_fields()]
+        "outputs": ["summary.json", "history.csv"]
+        + [f"{stem}.bp" for stem in recorder.field_stems()]
         + [f"tool_{t.name}.pvd" for t in job.scene.tools],
     }
     if job.pictures is not None:

@@ -225,6 +225,67 @@ class Contact:
 
 
 @dataclass(frozen=True)
+class Interface:
+    """Contact between two bodies over the facets they share in the scene mesh.
+
+    Small sliding: the surfaces are paired node to node as meshed (the nodes of the two
+    bodies that start at the same point), so the tangential slip must stay well below an
+    element size; the run warns when it does not (``docs/theory.md``, "Several bodies").
+
+    Attributes:
+        region: Surface physical group of shared (interior) facets, e.g.
+            ``interface_top`` of a sandwich blank.
+        body: The body whose outward normal is the contact normal (the core).
+        other: The body on the other side (a skin).
+        kind: ``"frictional"`` (separation allowed, Coulomb friction; ``friction = 0`` is
+            frictionless and compiles no tangential terms) or ``"bonded"`` (tied).
+        friction: Coulomb coefficient.
+        penalty: Augmented-Lagrangian penalty [N/mm^3]; default 10 E / h from the
+            first body's largest elastic stiffness and the smallest facet edge.
+        tolerance: Admissible penetration [mm]; default 1% of the smallest facet edge or
+            of the thinnest body, whichever is smaller.
+        slip_warning: Warn when the tangential slip exceeds this fraction of the facet
+            edge (the small-sliding pairing stops being accurate).
+        stabilisation: Weak spring on the relative motion of the two surfaces within a
+            load step, as a fraction of the penalty (0: none). It gives a skin that lifts
+            off the core, which has almost no bending stiffness, a stiffness against
+            floating; its force is recorded so its share can be checked.
+        smoothing: Width of a smoothed pressure ramp, as a fraction of the pressure that
+            the penetration tolerance stands for (penalty x tolerance); 0: sharp ramp.
+            At zero gap it leaves a pressure of half the width.
+    """
+
+    region: str
+    body: str
+    other: str
+    kind: str = "frictional"
+    friction: float = 0.0
+    penalty: float | None = None
+    tolerance: float | None = None
+    slip_warning: float = 0.5
+    stabilisation: float = 0.0
+    smoothing: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.stabilisation) and self.stabilisation >= 0):
+            raise InputError("interface.stabilisation",
+                             f"must be >= 0, got {self.stabilisation!r}")
+        if self.kind not in ("frictional", "bonded"):
+            raise InputError("interface.kind",
+                             f"must be 'frictional' or 'bonded', got {self.kind!r}")
+        if self.body == self.other:
+            raise InputError("interface.other", f"must differ from body {self.body!r}")
+        if not (math.isfinite(self.friction) and self.friction >= 0):
+            raise InputError("interface.friction", f"must be >= 0, got {self.friction!r}")
+        if not (math.isfinite(self.smoothing) and self.smoothing >= 0):
+            raise InputError("interface.smoothing", f"must be >= 0, got {self.smoothing!r}")
+        for name in ("penalty", "tolerance", "slip_warning"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise InputError(f"interface.{name}", f"must be positive, got {v!r}")
+
+
+@dataclass(frozen=True)
 class Scene:
     """Everything a solver needs to know about what is simulated.
 
@@ -236,6 +297,7 @@ class Scene:
         tractions: Dead tractions on faces.
         tools: Rigid tools.
         contacts: Contact pairs between body surfaces and tools.
+        interfaces: Contact between bodies over their shared facets.
         quadrature_degree: Quadrature degree of the bulk integrals (None: 2 for
             degree-1 bodies, 4 for degree 2, see ``docs/theory.md``).
     """
@@ -247,6 +309,7 @@ class Scene:
     tractions: tuple[Traction, ...] = ()
     tools: tuple[Tool, ...] = ()
     contacts: tuple[Contact, ...] = ()
+    interfaces: tuple[Interface, ...] = ()
     quadrature_degree: int | None = None
     metadata: dict = field(default_factory=dict, compare=False)
 
@@ -256,23 +319,25 @@ class Scene:
             raise InputError("scene.bodies", "a scene needs at least one body")
         if len(set(names)) != len(names):
             raise InputError("scene.bodies", f"body names must be unique, got {names}")
-        if len(self.bodies) > 1:
-            raise InputError(
-                "scene.bodies",
-                "several bodies need the interfaces of issue #4 (skins on a core); "
-                "this version solves one body",
-            )
         for b in self.bodies:
             if b.region is not None:
                 self.mesh.cells(b.region)
+            elif len(self.bodies) > 1:
+                raise InputError(f"body[{b.name}].region",
+                                 "each body of a scene with several bodies needs a region")
+        for itf in self.interfaces:
+            for who in (itf.body, itf.other):
+                if who not in names:
+                    raise InputError("interface.body", f"unknown body {who!r}; bodies: {names}")
+            self.mesh.facet_tag_ids(itf.region)
         for d in self.displacements:
             if d.body not in names:
                 raise InputError("displacement.body", f"unknown body {d.body!r}; bodies: {names}")
-            self.mesh.facets(d.region)
+            self.mesh.facet_tag_ids(d.region)
         for tr in self.tractions:
             if tr.body not in names:
                 raise InputError("traction.body", f"unknown body {tr.body!r}; bodies: {names}")
-            self.mesh.facets(tr.region)
+            self.mesh.facet_tag_ids(tr.region)
         tools = [t.name for t in self.tools]
         if len(set(tools)) != len(tools):
             raise InputError("scene.tools", f"tool names must be unique, got {tools}")
@@ -281,7 +346,7 @@ class Scene:
                 raise InputError("contact.body", f"unknown body {c.body!r}; bodies: {names}")
             if c.tool not in tools:
                 raise InputError("contact.tool", f"unknown tool {c.tool!r}; tools: {tools}")
-            self.mesh.facets(c.region)
+            self.mesh.facet_tag_ids(c.region)
 
     def tool(self, name: str) -> Tool:
         """The tool called ``name``."""

@@ -82,6 +82,27 @@ class HemisphericalPunch:
 
 
 @dataclass(frozen=True)
+class Roller:
+    """An infinitely long cylinder (a bending-test roller), axis along y.
+
+    Attributes:
+        center: A point on the axis.
+        radius: Roller radius [mm].
+    """
+
+    center: tuple[float, float, float]
+    radius: float
+
+    def __post_init__(self) -> None:
+        _positive("tool.radius", self.radius)
+
+    def distance(self, p, xp):
+        """Signed distance of points ``p``."""
+        return _norm3(xp, p[0] - self.center[0], 0.0 * p[1], p[2] - self.center[2]) - \
+            self.radius
+
+
+@dataclass(frozen=True)
 class RoundedBox:
     """A box with all edges rounded (the square punch with filleted edges).
 
@@ -152,4 +173,4 @@ class AnnularPlate:
         return outside + inside - r
 
 
-Shape = Plane | HemisphericalPunch | RoundedBox | AnnularPlate
+Shape = Plane | HemisphericalPunch | Roller | RoundedBox | AnnularPlate

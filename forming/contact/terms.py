@@ -34,60 +34,42 @@ class ContactTerm:
     Args:
         contact: The scene's contact pair.
         tool: The tool it refers to.
-        body: The :class:`~forming.model.SolidBody` whose surface touches.
-        facet_tags: Facet tags of the body's mesh.
-        facets: Local facet indices of the region.
-        tag: The region's tag.
+        body: The body whose surface touches (``SolidBody`` or ``FabricBody``).
         thickness: Smallest extent of the body [mm] (caps the default tolerance).
     """
 
-    def __init__(self, contact: Contact, tool: Tool, body, facet_tags, facets: np.ndarray,
-                 tag: int, thickness: float):
+    def __init__(self, contact: Contact, tool: Tool, body, thickness: float):
         self.contact = contact
         self.tool = tool
         self.body = body
-        msh = body.mesh
+        msh = body.mesh  # the body's own mesh (multipliers, nodal evaluation)
+        parent = body.domain.md.mesh  # the scene mesh (forms)
         self.comm = msh.comm
+        facets = body.domain.facets(contact.region)
         h = surface_edge_min(msh, facets)
         self.tolerance = contact.tolerance or 0.01 * min(h, thickness)
         stiffness = body.contact_stiffness()
         self.penalty = contact.penalty or 10.0 * stiffness / h
         self.friction = contact.friction
-        self.ds = ufl.Measure("ds", domain=msh, subdomain_data=facet_tags, subdomain_id=tag,
-                              metadata={"quadrature_rule": "vertex", "quadrature_degree": 1})
+        self.ds = body.domain.ds(contact.region, quadrature_rule="vertex", quadrature_degree=1)
         W = fem.functionspace(msh, ("Lagrange", 1))
         self.lam_n = fem.Function(W, name=f"pressure_{tool.name}")
-        self.offset = fem.Constant(msh, np.zeros(3))
-        self.eps = fem.Constant(msh, self.penalty)
-        u = body.u
-        x = ufl.SpatialCoordinate(msh)
-        p = ufl.variable(x + u - self.offset)
-        self.gap = tool.shape.distance(p, UFL)
-        grad = ufl.diff(self.gap, p)
-        self.normal = grad / ufl.sqrt(ufl.dot(grad, grad) + 1e-30)
-        trial_p = self.lam_n - self.eps * self.gap
-        # ">=": a node that just touches (g = 0) is active, so a body resting on a tool
-        # is supported in the first Jacobian
-        self.pressure = ufl.conditional(ufl.ge(trial_p, 0.0), trial_p, 0.0)
-        traction = self.pressure * self.normal
+        self.offset = fem.Constant(parent, np.zeros(3))
+        self.eps = fem.Constant(parent, self.penalty)
         self.lam_t = None
+        Wv = None
         if self.friction > 0.0:  # a frictionless pair compiles no tangential terms
             Wv = fem.functionspace(msh, ("Lagrange", 1, (3,)))
             self.lam_t = fem.Function(Wv, name=f"shear_{tool.name}")
             self.u_prev = fem.Function(body.V)
-            self.offset_prev = fem.Constant(msh, np.zeros(3))
-            n = self.normal
-            proj = ufl.Identity(3) - ufl.outer(n, n)
-            slip = proj * (u - self.u_prev - (self.offset - self.offset_prev))
-            trial = proj * self.lam_t - self.eps * slip
-            size = ufl.sqrt(ufl.dot(trial, trial) + 1e-30)
-            limit = self.friction * self.pressure
-            # stick up to the cone (+1e-12 MPa): a node that just touches, with zero pressure
-            # and zero trial shear, sticks instead of slipping in a round-off direction
-            self.shear = ufl.conditional(ufl.le(size, limit + 1e-12), trial,
-                                         limit * trial / size)
-            traction = traction + self.shear
-        self.traction = traction
+            self.offset_prev = fem.Constant(parent, np.zeros(3))
+        # the same expressions with the coordinates of the scene mesh (forms) and of the
+        # body's own mesh (nodal evaluation); identical for a body on the whole mesh
+        self.gap, self.normal, self.pressure, self.shear, self.traction = self._terms(
+            ufl.SpatialCoordinate(parent))
+        own = self._terms(ufl.SpatialCoordinate(msh)) if body.domain.is_submesh else (
+            self.gap, self.normal, self.pressure, self.shear, self.traction)
+        gap_own, _n, pressure_own, shear_own, _t = own
         # nodal evaluation on the cells next to the region
         msh.topology.create_connectivity(2, 3)
         self._cells = mesh.compute_incident_entities(msh.topology, facets.astype(np.int32),
@@ -95,16 +77,42 @@ class ContactTerm:
         self._dofs = fem.locate_dofs_topological(W, 2, facets)
         self._owned = self._dofs[self._dofs < W.dofmap.index_map.size_local]
         pts = W.element.interpolation_points
-        self._gap_expr = fem.Expression(self.gap, pts)
-        self._p_expr = fem.Expression(self.pressure, pts)
+        self._gap_expr = fem.Expression(gap_own, pts)
+        self._p_expr = fem.Expression(pressure_own, pts)
         self._gap = fem.Function(W)
         self._p_new = fem.Function(W)
         if self.lam_t is not None:
-            self._t_expr = fem.Expression(self.shear, Wv.element.interpolation_points)
+            self._t_expr = fem.Expression(shear_own, Wv.element.interpolation_points)
             self._t_new = fem.Function(Wv)
-        self._force_forms = [fem.form(-self.traction[i] * self.ds) for i in range(3)]
-        self._area_form = fem.form(ufl.conditional(ufl.gt(self.pressure, 0.0), 1.0, 0.0)
-                                   * self.ds)
+        form = body.domain.form
+        self._force_forms = [form(-self.traction[i] * self.ds) for i in range(3)]
+        self._area_form = form(ufl.conditional(ufl.gt(self.pressure, 0.0), 1.0, 0.0) * self.ds)
+
+    def _terms(self, x):
+        """Gap, normal, pressure, shear (None without friction) and traction at ``x``."""
+        u = self.body.u
+        p = ufl.variable(x + u - self.offset)
+        gap = self.tool.shape.distance(p, UFL)
+        grad = ufl.diff(gap, p)
+        normal = grad / ufl.sqrt(ufl.dot(grad, grad) + 1e-30)
+        trial_p = self.lam_n - self.eps * gap
+        # ">=": a node that just touches (g = 0) is active, so a body resting on a tool
+        # is supported in the first Jacobian
+        pressure = ufl.conditional(ufl.ge(trial_p, 0.0), trial_p, 0.0)
+        traction = pressure * normal
+        shear = None
+        if self.lam_t is not None:
+            proj = ufl.Identity(3) - ufl.outer(normal, normal)
+            slip = proj * (u - self.u_prev - (self.offset - self.offset_prev))
+            trial = proj * self.lam_t - self.eps * slip
+            size = ufl.sqrt(ufl.dot(trial, trial) + 1e-30)
+            limit = self.friction * pressure
+            # stick up to the cone (+1e-12 MPa): a node that just touches, with zero
+            # pressure and zero trial shear, sticks instead of slipping in a round-off
+            # direction
+            shear = ufl.conditional(ufl.le(size, limit + 1e-12), trial, limit * trial / size)
+            traction = traction + shear
+        return gap, normal, pressure, shear, traction
 
     # -- forms -------------------------------------------------------------------------
     def residual(self, v) -> ufl.Form:

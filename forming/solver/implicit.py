@@ -11,7 +11,7 @@ from typing import Literal
 import numpy as np
 import ufl
 from dolfinx import fem  # noqa: I001
-from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_residual
+from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_residual, assign
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -141,51 +141,75 @@ class ImplicitSolver:
     def __init__(self, model: Model, options: NewtonOptions | None = None):
         self.model = model
         self.options = options or NewtonOptions()
-        body = model.body
-        v = ufl.TestFunction(body.V)
-        du = ufl.TrialFunction(body.V)
         self.prefix = f"forming{next(_ids) or ''}_"
         opts = self.options.petsc_options()
         cmdline = PETSc.Options()
         opts = {k: v for k, v in opts.items() if not cmdline.hasName(f"{self.prefix}{k}")}
-        self.problem = NonlinearProblem(
-            model.residual(v), body.u, bcs=model.dirichlet.bcs, J=model.jacobian(du, v),
-            petsc_options_prefix=self.prefix, petsc_options=opts,
-        )
+        bodies = list(model.bodies.values())
+        self._bodies = bodies
+        bcs = model.dirichlet.bcs
+        if len(bodies) == 1:
+            body = bodies[0]
+            v = ufl.TestFunction(body.V)
+            du = ufl.TrialFunction(body.V)
+            self._u = body.u
+            self.problem = NonlinearProblem(
+                model.residual(v), body.u, bcs=bcs, J=model.jacobian(du, v),
+                petsc_options_prefix=self.prefix, petsc_options=opts,
+                entity_maps=model.entity_maps or None,
+            )
+        else:
+            # one monolithic matrix over all bodies' unknowns (MUMPS cannot factor MATNEST)
+            self._u = [b.u for b in bodies]
+            self.problem = NonlinearProblem(
+                model.residuals(), self._u, bcs=bcs, J=model.jacobians(), kind="mpi",
+                petsc_options_prefix=self.prefix, petsc_options=opts,
+                entity_maps=model.entity_maps or None,
+            )
         snes = self.problem.solver
-        self._fctx = {"u": body.u, "residual": self.problem.F, "jacobian": self.problem.J,
-                      "bcs": model.dirichlet.bcs}
-        self._jctx = {"u": body.u, "jacobian": self.problem.J, "preconditioner": None,
-                      "bcs": model.dirichlet.bcs}
+        self._fctx = {"u": self._u, "residual": self.problem.F, "jacobian": self.problem.J,
+                      "bcs": bcs}
+        if (blocks := self.problem.b.getAttr("_blocks")) is not None:
+            self._fctx["_blocks"] = blocks
+        self._jctx = {"u": self._u, "jacobian": self.problem.J, "preconditioner": None,
+                      "bcs": bcs}
         snes.setFunction(self._residual, self.problem.b)
         snes.setJacobian(self._jacobian, self.problem.A, None)
         snes.setMonitor(self._monitor)
         if self.options.linear_solver == "gamg":
-            self.problem.A.setNearNullSpace(_rigid_body_modes(body.V))
+            if len(bodies) > 1:
+                raise InputError("solver.linear_solver",
+                                 "'gamg' supports one body; use 'mumps' for several bodies")
+            self.problem.A.setNearNullSpace(_rigid_body_modes(bodies[0].V))
         self._residuals: list[float] = []
         self._failure: str | None = None
-        self._u_prev: np.ndarray | None = None
+        self._u_prev: list[np.ndarray] | None = None
         self.assembly_seconds = 0.0
         self.last_augmentations = 0
         self._force_scale = 0.0
         self._user_atol = "snes_atol" not in opts  # set on the command line: keep it
 
     # -- SNES callbacks --------------------------------------------------------------
-    def _residual(self, snes, x, b) -> None:
-        t0 = time.perf_counter()
-        body = self.model.body
+    def _update_materials(self, x) -> str | None:
+        """Copy ``x`` into the displacements and evaluate every body's material."""
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        body.u.x.petsc_vec.array_w[:] = x.array_r
-        body.u.x.scatter_forward()
-        failure = None
+        assign(x, self._u)
+        for b in self._bodies:
+            b.u.x.scatter_forward()
         try:
             # the tangent too: the Dirichlet lifting inside the residual uses the Jacobian
-            body.update_material(want_tangent=True)
+            for b in self._bodies:
+                b.update_material(want_tangent=True)
         except KernelFailure as exc:
-            failure = str(exc)
+            return str(exc)
+        return None
+
+    def _residual(self, snes, x, b) -> None:
+        t0 = time.perf_counter()
+        failure = self._update_materials(x)
         # collective decision: a rank that skipped assembly would leave the others waiting
         # in the ghost exchange
-        if body.mesh.comm.allreduce(failure is not None, op=MPI.LOR):
+        if self.model.comm.allreduce(failure is not None, op=MPI.LOR):
             self._failure = failure or "a point kernel failed on another rank"
             b.set(np.nan)
             return
@@ -194,14 +218,9 @@ class ImplicitSolver:
 
     def _jacobian(self, snes, x, A, P) -> None:
         t0 = time.perf_counter()
-        body = self.model.body
-        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        body.u.x.petsc_vec.array_w[:] = x.array_r
-        body.u.x.scatter_forward()
-        try:  # an exception here would leave SNES unusable: never raise
-            body.update_material(want_tangent=True)
-        except KernelFailure as exc:
-            self._failure = str(exc)
+        failure = self._update_materials(x)  # never raise here: SNES would be unusable
+        if failure:
+            self._failure = failure
         assemble_jacobian(snes, x, A, P, **self._jctx)
         self.assembly_seconds += time.perf_counter() - t0
 
@@ -211,11 +230,12 @@ class ImplicitSolver:
     # -- step lifecycle ----------------------------------------------------------------
     def predict(self, t_new: float, t_old: float, dt_old: float) -> None:
         """Initial guess for the step to ``t_new`` (the load is already set)."""
-        u = self.model.body.u
         if self.options.predictor == "extrapolate" and self._u_prev is not None and dt_old > 0:
             ratio = (t_new - t_old) / dt_old
-            u.x.array[:] += ratio * (u.x.array - self._u_prev)
-        self.model.body.invalidate()
+            for b, prev in zip(self._bodies, self._u_prev, strict=True):
+                b.u.x.array[:] += ratio * (b.u.x.array - prev)
+        for b in self._bodies:
+            b.invalidate()
 
     def _newton(self) -> tuple[bool, str]:
         snes = self.problem.solver
@@ -244,7 +264,7 @@ class ImplicitSolver:
             snes.setTolerances(atol=max(self.options.atol,
                                         self.options.force_rtol * self._force_scale))
         iterations = 0
-        contacts = self.model.contacts
+        contacts = self.model.constraints
         ok, reason, aug = False, "", 0
         for aug in range(self.options.max_augmentations + 1):
             ok, reason = self._newton()
@@ -262,15 +282,17 @@ class ImplicitSolver:
             ok, reason = False, (f"contact constraints not met after "
                                  f"{self.options.max_augmentations} augmentations")
         self.last_augmentations = aug
-        self.model.body.invalidate()
+        for b in self._bodies:
+            b.invalidate()
         return StepResult(ok, iterations, list(self._residuals), reason,
                           time.perf_counter() - t0, aug)
 
-    def accept(self, u_before: np.ndarray, force_scale: float = 0.0) -> None:
+    def accept(self, u_before: list[np.ndarray], force_scale: float = 0.0) -> None:
         """Remember the step's converged state for the next step.
 
         Args:
-            u_before: Displacement before the step (for the extrapolating predictor).
+            u_before: Displacement of every body before the step (for the extrapolating
+                predictor), in the model's body order.
             force_scale: Largest reaction or tool force of the step [N] (``force_rtol``).
         """
         self._u_prev = u_before

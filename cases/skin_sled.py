@@ -1,0 +1,109 @@
+"""Sled test of the skin-core interface: a fabric skin dragged over a core block.
+
+The paper measures fabric-core friction with a sled: a fabric under a normal pressure of
+2 kPa is pulled over the core and the pulling force over the normal force gives the
+coefficient, 0.52. Here a sandwich blank (core between two one-ply skins) rests on its
+bottom skin, which is held; the bottom interface is bonded. The top skin carries the 2 kPa
+pressure on its top face and is dragged along x by its top face (the sled's plate), so
+the top interface slips. ``metrics.friction_ratio`` is the drag force over the normal
+force carried by the interface once the skin slides; it should equal the coefficient
+(``friction``).
+
+Run: ``python cases/skin_sled.py`` or ``mpirun -n 2 python cases/skin_sled.py``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from forming.case import main
+from forming.errors import InputError
+from forming.materials.fabric import NonCrimpFabric
+from forming.materials.library import honeycomb_core
+from forming.run import Job
+from forming.sandwich import Outline, sandwich_blank
+from forming.scene import Body, Displacement, Interface, Linear, Scene, Traction
+from forming.solver.implicit import NewtonOptions
+from forming.solver.stepping import StepControl
+
+FABRIC_CORE_FRICTION = 0.52  # paper, section "Friction between materials"
+
+
+@dataclass(frozen=True)
+class Params:
+    """Parameters of the sled test (mm, MPa)."""
+
+    length: float = 50.0
+    width: float = 50.0
+    core_thickness: float = 10.0
+    skin_thickness: float = 0.4
+    element: float = 10.0
+    pressure: float = 0.002  # 2 kPa
+    friction: float = FABRIC_CORE_FRICTION
+    drag: float = 2.0  # mm of pull
+    steps: int = 10
+
+
+def build(p: Params) -> Job:
+    if not p.pressure > 0:
+        raise InputError("pressure", f"must be positive, got {p.pressure}")
+    if not p.drag > 0:
+        raise InputError("drag", f"must be positive, got {p.drag}")
+    if p.steps < 2:
+        raise InputError("steps", f"must be >= 2, got {p.steps}")
+    mesh = sandwich_blank(Outline.rectangle(p.length, p.width), core_thickness=p.core_thickness,
+                          skin_thickness=p.skin_thickness, plies=1, element_size=p.element,
+                          core_layers=2)
+    fabric = NonCrimpFabric(thickness=p.skin_thickness)
+    scene = Scene(
+        name="skin_sled", mesh=mesh,
+        bodies=(Body("core", honeycomb_core(plastic=False), region="core"),
+                Body("skin_bottom", fabric, region="skin_bottom"),
+                Body("skin_top", fabric, region="skin_top")),
+        displacements=(
+            Displacement("skin_bottom", "bottom", x=0.0, y=0.0, z=0.0, reaction=False),
+            # the sled's plate drags the top face along x and keeps it from drifting in y
+            Displacement("skin_top", "top", x=Linear(p.drag), y=0.0),
+        ),
+        tractions=(Traction("skin_top", "top", z=-p.pressure),),
+        interfaces=(Interface("interface_bottom", "core", "skin_bottom", kind="bonded"),
+                    Interface("interface_top", "core", "skin_top", friction=p.friction)),
+    )
+    area = p.length * p.width
+
+    def metrics(rec, model) -> dict:
+        drag = np.abs(rec.column("reaction_skin_top_top_x_N"))
+        normal = rec.column("normal_force_interface_top_N")
+        ratio = drag[-1] / normal[-1]
+        return {
+            "friction_ratio": float(ratio),
+            "friction_ratio_error_rel": float(abs(ratio - p.friction) / p.friction),
+            "friction_ratio_applied_load": float(drag[-1] / (p.pressure * area)),
+            "normal_force_N": float(normal[-1]),
+            "drag_force_N": float(drag[-1]),
+            "slip_mm": float(rec.column("slip_interface_top_mm")[-1]),
+            "bonded_slip_mm": float(rec.column("slip_interface_bottom_mm")[-1]),
+            "penetration_mm": float(rec.column("penetration_interface_top_mm").max()),
+        }
+
+    def plots(rec, out: Path) -> list[Path]:
+        from forming.output import plot_curves
+
+        d = rec.column("t") * p.drag
+        ratio = np.abs(rec.column("reaction_skin_top_top_x_N")) / np.maximum(
+            rec.column("normal_force_interface_top_N"), 1e-30)
+        return [plot_curves(Path(out) / "skin_sled.png",
+                            [(d, ratio, "computed", "o-"),
+                             (d, np.full_like(d, p.friction), f"mu = {p.friction}", "--")],
+                            "pull [mm]", "drag / normal force",
+                            "Sled: fabric skin dragged over the core under 2 kPa")]
+
+    return Job(scene=scene, steps=StepControl(initial=1.0 / p.steps, max=1.0 / p.steps),
+               newton=NewtonOptions(line_search="bt"), metrics=metrics, plots=plots)
+
+
+if __name__ == "__main__":
+    main(build, Params, "skin_sled")

@@ -1,0 +1,284 @@
+"""Contact between two bodies over the facets they share: skins on a core.
+
+Small sliding, node to node: the two bodies are meshed conformingly, so each interface
+node of one body starts where a node of the other starts. The terms are integrated on
+the scene mesh's interior facets with the vertex rule (``dS``, "+" = the first body,
+whose outward normal, rotated with its deformation, is the contact normal; "-" = the
+other body). Gap, pressure and tangential traction therefore live at the interface
+nodes, and the multipliers are P1 functions of the first body. Augmented Lagrangian as
+for tools (:mod:`forming.contact.terms`): fixed multipliers within a Newton solve,
+Uzawa updates between solves, Coulomb return mapping on the slip increment of the step.
+Nodal values of the tractions come from assembling them against the P1 test function
+and dividing by the nodal area (the vertex rule makes this exact where the adjacent
+facets agree, and an area average where the deformed normal jumps between facets).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem, la  # noqa: I001
+from mpi4py import MPI
+
+from forming.contact.terms import surface_edge_min
+from forming.errors import InputError
+from forming.scene import Interface
+
+
+def interface_entities(md, first, second, region: str) -> np.ndarray:
+    """Interior-facet integration entities of ``region``, ``first``'s cell in each row first.
+
+    Args:
+        md: The scene mesh data.
+        first: Domain (:class:`~forming.domain.BodyDomain`) of the "+" body.
+        second: Domain of the "-" body.
+        region: Surface group of the shared facets.
+
+    Returns:
+        Rows (cell, local facet, cell, local facet) on the scene mesh, flattened.
+
+    Raises:
+        InputError: A facet of the region is not shared by the two bodies.
+    """
+    msh = md.mesh
+    facets = md.facets(region)
+    ent = fem.compute_integration_domains(fem.IntegralType.interior_facet, msh.topology,
+                                          facets.astype(np.int32)).reshape(-1, 4)
+    n_cells = msh.topology.index_map(3).size_local + msh.topology.index_map(3).num_ghosts
+    in_first = np.zeros(n_cells, dtype=bool)
+    in_first[first.parent_cells] = True
+    in_second = np.zeros(n_cells, dtype=bool)
+    in_second[second.parent_cells] = True
+    flip = ~in_first[ent[:, 0]]
+    ent[flip] = ent[flip][:, [2, 3, 0, 1]]
+    bad = int(np.count_nonzero(~(in_first[ent[:, 0]] & in_second[ent[:, 2]])))
+    n_rows = msh.comm.allreduce(ent.shape[0], op=MPI.SUM)
+    if msh.comm.allreduce(bad, op=MPI.SUM) or n_rows == 0:
+        raise InputError("interface.region",
+                         f"{region!r} must consist of interior facets shared by the two "
+                         f"bodies ({n_rows} facets found, "
+                         f"{msh.comm.allreduce(bad, op=MPI.SUM)} not shared)")
+    return ent.ravel()
+
+
+class InterfaceTerm:
+    """Frictional (or bonded) contact between two bodies on their shared facets.
+
+    Args:
+        spec: The scene's interface.
+        first: The body whose outward normal is the contact normal ("+").
+        second: The body on the other side ("-").
+        dS: The scene mesh's interior-facet measure restricted to this interface (vertex
+            rule).
+        thickness: Smallest extent of the two bodies [mm] (caps the default tolerance).
+    """
+
+    def __init__(self, spec: Interface, first, second, dS: ufl.Measure, thickness: float):
+        self.spec = spec
+        self.first = first
+        self.second = second
+        self.dS = dS
+        parent = first.domain.md.mesh
+        self.comm = parent.comm
+        self.entity_maps = first.domain.entity_maps + second.domain.entity_maps
+        facets = first.domain.facets(spec.region)
+        h = surface_edge_min(first.mesh, facets)
+        self.edge = h
+        self.tolerance = spec.tolerance or 0.01 * min(h, thickness)
+        self.penalty = spec.penalty or 10.0 * first.contact_stiffness() / h
+        self.friction = spec.friction if spec.kind == "frictional" else 0.0
+        self.bonded = spec.kind == "bonded"
+        self.eps = fem.Constant(parent, self.penalty)
+        msh = first.mesh
+        W = fem.functionspace(msh, ("Lagrange", 1))
+        Wv = fem.functionspace(msh, ("Lagrange", 1, (3,)))
+        self._dofs = fem.locate_dofs_topological(W, 2, facets)
+        self._x = W.tabulate_dof_coordinates()
+        self._owned = self._dofs[self._dofs < W.dofmap.index_map.size_local]
+        self.lam_n = None if self.bonded else fem.Function(W, name="interface_pressure")
+        self.lam_t = None  # tangential traction (frictional) or the whole traction (bonded)
+        if self.bonded or self.friction > 0.0:
+            self.lam_t = fem.Function(Wv, name="interface_traction")
+        u1, u2 = first.u("+"), second.u("-")
+        F1 = ufl.Identity(3) + ufl.grad(first.u)("+")
+        n0 = ufl.FacetNormal(parent)("+")
+        m = ufl.det(F1) * ufl.inv(F1).T * n0
+        n = m / ufl.sqrt(ufl.dot(m, m))
+        self.normal = n
+        jump = u2 - u1
+        proj = ufl.Identity(3) - ufl.outer(n, n)
+        self.slip_total = proj * jump
+        self.gap = ufl.dot(jump, n)
+        self.pressure = None
+        self.shear = None
+        if self.bonded:
+            traction = self.lam_t("+") - self.eps * jump  # on the second body
+        else:
+            trial_p = self.lam_n("+") - self.eps * self.gap
+            if spec.smoothing > 0.0:
+                # smoothed ramp: every node of a conforming interface starts at the kink
+                # (gap 0, pressure 0), where Newton can cycle between open and closed
+                delta = fem.Constant(parent, spec.smoothing * self.penalty * self.tolerance)
+                self.pressure = 0.5 * (trial_p + ufl.sqrt(trial_p * trial_p + delta * delta))
+            else:
+                self.pressure = ufl.conditional(ufl.ge(trial_p, 0.0), trial_p, 0.0)
+            traction = self.pressure * n
+        self.u1_prev = fem.Function(first.V)
+        self.u2_prev = fem.Function(second.V)
+        step_jump = jump - (self.u2_prev("-") - self.u1_prev("+"))
+        # elastic slip allowed while sticking (Abaqus' default: 0.5% of the facet edge)
+        self.elastic_slip = 0.005 * h
+        if self.friction > 0.0:  # a frictionless interface compiles no tangential terms
+            # Penalty stick with a stiffness proportional to the pressure, mu p / slip_el:
+            # stick and slip then switch at an elastic slip independent of the pressure, and
+            # the tangential stiffness vanishes smoothly with it. Every node of a skin laid
+            # on a core starts at zero pressure; an augmented stick constraint switched there
+            # between stick and slip in arbitrary directions and stalled Newton (hemisphere).
+            increment = proj * step_jump
+            limit = self.friction * self.pressure
+            k_t = limit / self.elastic_slip
+            trial = proj * self.lam_t("+") - k_t * increment
+            size = ufl.sqrt(ufl.dot(trial, trial) + 1e-30)
+            self.shear = ufl.conditional(ufl.le(size, limit), trial, limit * trial / size)
+            traction = traction + self.shear
+        self.stabilisation = None
+        if spec.stabilisation > 0.0 and not self.bonded:
+            # a weak spring on the relative motion within the step (Abaqus' contact
+            # stabilisation): it gives a skin that lifts off, or a node that opens and
+            # closes, some stiffness; its force is reported (stabilisation_force)
+            self.stabilisation = fem.Constant(parent, spec.stabilisation * self.penalty)
+            self._stab = -self.stabilisation * step_jump
+            traction = traction + self._stab
+        self.traction = traction
+        # nodal values: assemble against the P1 test function, divide by the nodal area
+        w, wv = ufl.TestFunction(W), ufl.TestFunction(Wv)
+        self._area = self._assemble(self._form(w("+") * dS))
+        self._area_v = np.repeat(self._area, 3)
+        if self.pressure is not None:
+            self._p_form = self._form(self.pressure * w("+") * dS)
+            self._g_form = self._form(self.gap * w("+") * dS)
+        if self.lam_t is not None:
+            new_t = self.traction if self.bonded else self.shear
+            self._t_form = self._form(ufl.dot(new_t, wv("+")) * dS)
+        self._slip_form = self._form(ufl.dot(self.slip_total, wv("+")) * dS)
+        self._normal_force = self._form(
+            (ufl.dot(self.traction, n) if self.bonded else self.pressure) * dS)
+        self._shear_forms = [self._form((proj * self.traction)[i] * dS) for i in range(3)]
+        self._stab_forms = ([] if self.stabilisation is None else
+                            [self._form(ufl.sqrt(self._stab[i] ** 2 + 1e-30) * dS)
+                             for i in range(3)])
+        self._p_new = None if self.lam_n is None else np.zeros_like(self.lam_n.x.array)
+        self._t_new = None if self.lam_t is None else np.zeros_like(self.lam_t.x.array)
+
+    # -- helpers ------------------------------------------------------------------------
+    def _form(self, ufl_form) -> fem.Form:
+        return fem.form(ufl_form, entity_maps=self.entity_maps or None)
+
+    def _assemble(self, form: fem.Form) -> np.ndarray:
+        """Assembled vector with shared-node contributions summed and ghosts updated."""
+        vec = fem.assemble_vector(form)
+        vec.scatter_reverse(la.InsertMode.add)
+        vec.scatter_forward()
+        return vec.array.copy()
+
+    def _nodal(self, form: fem.Form, values_per_node: int) -> np.ndarray:
+        area = self._area if values_per_node == 1 else self._area_v
+        out = self._assemble(form)
+        nz = area > 0
+        out[nz] /= area[nz]
+        return out
+
+    def _reduce_max(self, values: np.ndarray) -> float:
+        local = float(values.max()) if values.size else 0.0
+        return self.comm.allreduce(local, op=MPI.MAX)
+
+    # -- forms ----------------------------------------------------------------------------
+    def residuals(self, v1, v2) -> tuple[ufl.Form, ufl.Form]:
+        """Virtual work of the interface traction on the first and the second body."""
+        return (ufl.dot(self.traction, v1("+")) * self.dS,
+                -ufl.dot(self.traction, v2("-")) * self.dS)
+
+    # -- load programme -------------------------------------------------------------------
+    def set_load(self, t: float) -> None:
+        """Nothing moves with the load parameter (kept for the model's interface)."""
+
+    # -- augmentation ---------------------------------------------------------------------
+    def penetration(self) -> float:
+        """Largest nodal penetration of the second body into the first [mm] (0 if none)."""
+        if self.pressure is None:
+            return 0.0
+        g = self._nodal(self._g_form, 1)
+        return max(self._reduce_max(-g[self._owned]), 0.0)
+
+    def violation(self) -> float:
+        """Largest change of a nodal multiplier over the penalty [mm] (see ContactTerm)."""
+        own = self._owned
+        worst = 0.0
+        if self.lam_n is not None:
+            self._p_new = self._nodal(self._p_form, 1)
+            worst = self._reduce_max(np.abs(self._p_new[own] - self.lam_n.x.array[own]))
+        if self.bonded:  # frictional shear is a penalty with elastic slip: no Uzawa
+            self._t_new = self._nodal(self._t_form, 3)
+            new = self._t_new.reshape(-1, 3)[own]
+            old = self.lam_t.x.array.reshape(-1, 3)[own]
+            worst = max(worst, self._reduce_max(np.linalg.norm(new - old, axis=1)))
+        return worst / self.penalty
+
+    def augment(self) -> None:
+        """Uzawa update: the multipliers become the tractions of :meth:`violation`."""
+        d = self._dofs
+        if self.lam_n is not None:
+            self.lam_n.x.array[d] = self._p_new[d]
+            self.lam_n.x.scatter_forward()
+        if self.bonded:
+            self.lam_t.x.array.reshape(-1, 3)[d] = self._t_new.reshape(-1, 3)[d]
+            self.lam_t.x.scatter_forward()
+
+    def commit(self) -> None:
+        """Accept the step: the slip of the next step is measured from here."""
+        if self.friction > 0.0:
+            t = self._nodal(self._t_form, 3)
+            d = self._dofs
+            self.lam_t.x.array.reshape(-1, 3)[d] = t.reshape(-1, 3)[d]
+            self.lam_t.x.scatter_forward()
+        self.u1_prev.x.array[:] = self.first.u.x.array
+        self.u2_prev.x.array[:] = self.second.u.x.array
+
+    def snapshot(self) -> tuple:
+        """Copy of the multipliers."""
+        return (None if self.lam_n is None else self.lam_n.x.array.copy(),
+                None if self.lam_t is None else self.lam_t.x.array.copy())
+
+    def restore(self, snap: tuple) -> None:
+        """Return to a snapshot."""
+        if self.lam_n is not None:
+            self.lam_n.x.array[:] = snap[0]
+        if self.lam_t is not None:
+            self.lam_t.x.array[:] = snap[1]
+
+    # -- outputs --------------------------------------------------------------------------
+    def slip(self) -> tuple[np.ndarray, np.ndarray]:
+        """Tangential slip vectors [mm] and reference coordinates of this rank's nodes."""
+        s = self._nodal(self._slip_form, 3).reshape(-1, 3)
+        return s[self._owned], self._x[self._owned]
+
+    def max_slip(self) -> float:
+        """Largest tangential slip over the interface nodes of all ranks [mm]."""
+        s, _x = self.slip()
+        return self._reduce_max(np.linalg.norm(s, axis=1))
+
+    def normal_force(self) -> float:
+        """Total normal (compressive) force across the interface [N]."""
+        return self.comm.allreduce(fem.assemble_scalar(self._normal_force), op=MPI.SUM)
+
+    def stabilisation_force(self) -> float:
+        """Magnitude of the total stabilisation force of the last state [N] (0 if none)."""
+        if self.stabilisation is None:
+            return 0.0
+        f = [self.comm.allreduce(fem.assemble_scalar(g), op=MPI.SUM) for g in self._stab_forms]
+        return float(np.linalg.norm(f))
+
+    def shear_force(self) -> np.ndarray:
+        """Total tangential force the first body exerts on the second [N]."""
+        return np.array([self.comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
+                         for f in self._shear_forms])

@@ -1,0 +1,116 @@
+"""Where a body lives: its own mesh, and the measures its forms use on the scene mesh.
+
+A scene with one body covering the whole mesh solves on that mesh. A body that is a
+volume group of a larger mesh (a skin or the core of a sandwich blank) gets a cell
+submesh with its own displacement space; its residual is still integrated on the
+parent mesh (``dx`` restricted to its cells), so that it can share a form with the
+interface terms on the parent's interior facets (``docs/theory.md``, "Several bodies").
+Post-processing integrals use the body's own mesh (:meth:`BodyDomain.own_dx`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import ufl
+from dolfinx import fem, mesh  # noqa: I001
+from mpi4py import MPI
+
+from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from forming.errors import InputError
+from forming.mesh import MeshData
+
+
+@dataclass(frozen=True)
+class BodyDomain:
+    """The mesh of one body and its relation to the scene mesh.
+
+    Attributes:
+        md: The scene's mesh data (parent mesh, tags, group names).
+        mesh: The body's own mesh: the parent itself, or a cell submesh.
+        entity_map: Submesh cell -> parent cell map (None when ``mesh`` is the parent).
+        parent_cells: Parent indices of the body's cells (owned and ghost).
+        facet_tags: The parent's facet tags transferred to ``mesh``.
+    """
+
+    md: MeshData
+    mesh: object
+    entity_map: object | None
+    parent_cells: np.ndarray
+    facet_tags: object
+
+    @classmethod
+    def create(cls, md: MeshData, region: str | None) -> BodyDomain:
+        """The domain of the body on volume group ``region`` (None: the whole mesh)."""
+        parent = md.mesh
+        if region is None:
+            imap = parent.topology.index_map(3)
+            cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+            return cls(md, parent, None, cells, md.facet_tags)
+        cells = md.cells(region)
+        n_owned = parent.comm.allreduce(
+            int(np.count_nonzero(cells < parent.topology.index_map(3).size_local)))
+        if n_owned == 0:
+            raise InputError("body.region", f"volume group {region!r} has no cells")
+        sub, emap, vmap, _ = mesh.create_submesh(parent, 3, cells)
+        tags = mesh.transfer_meshtags_to_submesh(md.facet_tags, sub, vmap, emap)
+        # the parent cells in the submesh's cell order
+        n_sub = sub.topology.index_map(3).size_local + sub.topology.index_map(3).num_ghosts
+        parent_cells = emap.sub_topology_to_topology(np.arange(n_sub, dtype=np.int32),
+                                                     inverse=False)
+        return cls(md, sub, emap, np.asarray(parent_cells, dtype=np.int32), tags)
+
+    @property
+    def is_submesh(self) -> bool:
+        """True when the body has a mesh of its own."""
+        return self.entity_map is not None
+
+    @property
+    def entity_maps(self) -> list:
+        """Entity maps for forms that mix this body's functions with the parent mesh."""
+        return [] if self.entity_map is None else [self.entity_map]
+
+    def facets(self, region: str) -> np.ndarray:
+        """Facets of the surface group ``region`` on the body's own mesh.
+
+        Raises:
+            InputError: No such group, or the group has no facet on this body.
+        """
+        ids = self.md.facet_tag_ids(region)
+        self.mesh.topology.create_connectivity(2, 3)
+        found = np.unique(np.concatenate([self.facet_tags.find(t) for t in ids]))
+        n_all = self.mesh.comm.allreduce(int(found.size), op=MPI.SUM)
+        if n_all == 0:
+            raise InputError("region", f"surface group {region!r} has no facet on this body")
+        return found.astype(np.int32)
+
+    def dx(self, *degrees: int) -> list[ufl.Measure]:
+        """Parent-mesh cell measures over the body's cells, one per quadrature degree.
+
+        Each measure has its own subdomain id over the same cells, so FFCx generates one
+        kernel per measure: integrals of different degrees must not share a kernel in
+        FFCx 0.11 (see ``FabricBody``). The measures share one subdomain list, so they
+        can appear in one form.
+        """
+        n_owned = self.mesh.topology.index_map(3).size_local
+        cells = np.sort(self.parent_cells[:n_owned])  # ghosts are assembled by their owner
+        data = [(i + 1, cells) for i in range(len(degrees))]
+        return [ufl.Measure("dx", domain=self.md.mesh, subdomain_data=data, subdomain_id=i + 1,
+                            metadata={"quadrature_degree": q})
+                for i, q in enumerate(degrees)]
+
+    def own_dx(self, degree: int) -> ufl.Measure:
+        """Cell measure on the body's own mesh (post-processing)."""
+        return ufl.Measure("dx", domain=self.mesh, metadata={"quadrature_degree": degree})
+
+    def ds(self, region: str, **metadata) -> ufl.Measure:
+        """Parent-mesh exterior facet measure of the surface group ``region``."""
+        ids = self.md.facet_tag_ids(region)
+        return ufl.Measure("ds", domain=self.md.mesh, subdomain_data=self.md.facet_tags,
+                           subdomain_id=ids if len(ids) > 1 else ids[0],
+                           metadata=metadata or None)
+
+    def form(self, ufl_form) -> fem.Form:
+        """Compile a form that uses this body's functions on the parent mesh."""
+        return fem.form(ufl_form, entity_maps=self.entity_maps or None)
