@@ -67,6 +67,17 @@ class BodyDomain:
         return self.entity_map is not None
 
     @property
+    def n_owned_cells(self) -> int:
+        """Number of cells of the body's mesh owned by this rank."""
+        return self.mesh.topology.index_map(3).size_local
+
+    @property
+    def own_cells(self) -> np.ndarray:
+        """Owned then ghost cells of the body's own mesh."""
+        imap = self.mesh.topology.index_map(3)
+        return np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+
+    @property
     def entity_maps(self) -> list:
         """Entity maps for forms that mix this body's functions with the parent mesh."""
         return [] if self.entity_map is None else [self.entity_map]
@@ -93,8 +104,8 @@ class BodyDomain:
         FFCx 0.11 (see ``FabricBody``). The measures share one subdomain list, so they
         can appear in one form.
         """
-        n_owned = self.mesh.topology.index_map(3).size_local
-        cells = np.sort(self.parent_cells[:n_owned])  # ghosts are assembled by their owner
+        # owned cells only: a ghost cell is assembled by its owner
+        cells = np.sort(self.parent_cells[: self.n_owned_cells])
         data = [(i + 1, cells) for i in range(len(degrees))]
         return [ufl.Measure("dx", domain=self.md.mesh, subdomain_data=data, subdomain_id=i + 1,
                             metadata={"quadrature_degree": q})

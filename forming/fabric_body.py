@@ -53,10 +53,7 @@ class FabricBody:
         self.quadrature_degree = FULL_DEGREE
         self.V = fem.functionspace(msh, ("Lagrange", body.degree, (3,)))
         self.u = fem.Function(self.V, name="u")
-        tdim = msh.topology.dim
-        imap = msh.topology.index_map(tdim)
-        self.n_local_cells = imap.size_local
-        self.cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+        self.n_local_cells, self.cells = domain.n_owned_cells, domain.own_cells
         self.n_points = len(self.cells) * 8
         self.kernel_seconds = 0.0
         # The fibre integral gets its own subdomain id, hence its own kernel: FFCx 0.11

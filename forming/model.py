@@ -103,10 +103,7 @@ class SolidBody:
                                                                       degree=q))
         self.S = fem.Function(self.QS, name="S")
         self.D = fem.Function(self.QD, name="D")
-        tdim = msh.topology.dim
-        imap = msh.topology.index_map(tdim)
-        self.n_local_cells = imap.size_local
-        self.cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+        self.n_local_cells, self.cells = domain.n_owned_cells, domain.own_cells
         self._qdofs = self.QS.dofmap.list[self.cells].ravel()
         self.n_points = self._qdofs.size
         (self.dx,) = domain.dx(q)  # solve forms: on the scene mesh
@@ -444,18 +441,6 @@ class Model:
                 for j in (a, b):
                     add(i, j, ufl.derivative(r[i], self.bodies[j].u, trials[j]))
         return [[blocks.get((i, j)) for j in self.names] for i in self.names]
-
-    def residual(self, v) -> ufl.Form:
-        """Residual of a single-body scene, tested with ``v``."""
-        return self._residual_terms({self.names[0]: v})[self.names[0]]
-
-    def jacobian(self, du, v) -> ufl.Form:
-        """Consistent Jacobian of :meth:`residual` (single-body scene)."""
-        body = self.body
-        form = body.jacobian(du, v)
-        for c in self.contacts:
-            form = form + ufl.derivative(c.residual(v), body.u, du)
-        return form
 
     def set_load(self, t: float) -> None:
         """Apply the loading programme at ``t`` (prescribed displacements, tool positions)."""

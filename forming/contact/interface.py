@@ -5,9 +5,11 @@ node of one body starts where a node of the other starts. The terms are integrat
 the scene mesh's interior facets with the vertex rule (``dS``, "+" = the first body,
 whose outward normal, rotated with its deformation, is the contact normal; "-" = the
 other body). Gap, pressure and tangential traction therefore live at the interface
-nodes, and the multipliers are P1 functions of the first body. Augmented Lagrangian as
-for tools (:mod:`forming.contact.terms`): fixed multipliers within a Newton solve,
-Uzawa updates between solves, Coulomb return mapping on the slip increment of the step.
+nodes, and the multipliers are P1 functions of the first body. Normal contact (and a
+bonded tie) is an augmented Lagrangian as for tools (:mod:`forming.contact.terms`):
+fixed multipliers within a Newton solve, Uzawa updates between solves. Friction is a
+Coulomb return mapping on the slip increment of the step with a penalty stick of
+elastic slip (docs/theory.md, section 11); its traction is history, updated at commit.
 Nodal values of the tractions come from assembling them against the P1 test function
 and dividing by the nodal area (the vertex rule makes this exact where the adjacent
 facets agree, and an area average where the deformed normal jumps between facets).
@@ -164,9 +166,8 @@ class InterfaceTerm:
         self._normal_force = self._form(
             (ufl.dot(self.traction, n) if self.bonded else self.pressure) * dS)
         self._shear_forms = [self._form((proj * self.traction)[i] * dS) for i in range(3)]
-        self._stab_forms = ([] if self.stabilisation is None else
-                            [self._form(ufl.sqrt(self._stab[i] ** 2 + 1e-30) * dS)
-                             for i in range(3)])
+        self._stab_form = (None if self.stabilisation is None else
+                           self._form(ufl.sqrt(ufl.dot(self._stab, self._stab) + 1e-30) * dS))
         self._p_new = None if self.lam_n is None else np.zeros_like(self.lam_n.x.array)
         self._t_new = None if self.lam_t is None else np.zeros_like(self.lam_t.x.array)
 
@@ -272,11 +273,10 @@ class InterfaceTerm:
         return self.comm.allreduce(fem.assemble_scalar(self._normal_force), op=MPI.SUM)
 
     def stabilisation_force(self) -> float:
-        """Magnitude of the total stabilisation force of the last state [N] (0 if none)."""
+        """Integral of the stabilisation traction's magnitude [N] (0 if none)."""
         if self.stabilisation is None:
             return 0.0
-        f = [self.comm.allreduce(fem.assemble_scalar(g), op=MPI.SUM) for g in self._stab_forms]
-        return float(np.linalg.norm(f))
+        return self.comm.allreduce(fem.assemble_scalar(self._stab_form), op=MPI.SUM)
 
     def shear_force(self) -> np.ndarray:
         """Total tangential force the first body exerts on the second [N]."""

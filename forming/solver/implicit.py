@@ -9,7 +9,6 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
-import ufl
 from dolfinx import fem  # noqa: I001
 from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_residual, assign
 from mpi4py import MPI
@@ -150,11 +149,9 @@ class ImplicitSolver:
         bcs = model.dirichlet.bcs
         if len(bodies) == 1:
             body = bodies[0]
-            v = ufl.TestFunction(body.V)
-            du = ufl.TrialFunction(body.V)
             self._u = body.u
             self.problem = NonlinearProblem(
-                model.residual(v), body.u, bcs=bcs, J=model.jacobian(du, v),
+                model.residuals()[0], body.u, bcs=bcs, J=model.jacobians()[0][0],
                 petsc_options_prefix=self.prefix, petsc_options=opts,
                 entity_maps=model.entity_maps or None,
             )
