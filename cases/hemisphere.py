@@ -118,12 +118,15 @@ def build(p: Params) -> Job:
     tools = [Tool("punch", HemisphericalPunch((0.0, 0.0, top), R, length=150.0),
                   z=Linear(-p.stroke)),
              Tool("die", AnnularPlate((0.0, 0.0, bottom), hole, p.edge_radius, side=-1))]
-    contacts = [Contact(upper, "top", "punch", friction=mu),
-                Contact(lower, "bottom", "die", friction=mu)]
+    # fabric on a tool: the same elastic-slip stick as on the core (nodes under the
+    # holder touch at zero pressure, where an augmented stick constraint cycled)
+    stick = "elastic_slip" if p.skins else "augmented"
+    contacts = [Contact(upper, "top", "punch", friction=mu, stick=stick),
+                Contact(lower, "bottom", "die", friction=mu, stick=stick)]
     if p.blank_holder:
         tools.append(Tool("holder", AnnularPlate((0.0, 0.0, top), hole, p.edge_radius,
                                                  side=1)))
-        contacts.append(Contact(upper, "top", "holder", friction=mu))
+        contacts.append(Contact(upper, "top", "holder", friction=mu, stick=stick))
     symmetry = tuple(d for b in bodies for d in (
         Displacement(b.name, "xmin", x=0.0, reaction=False),
         Displacement(b.name, "ymin", y=0.0, reaction=False)))

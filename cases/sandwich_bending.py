@@ -89,8 +89,14 @@ def build(p: Params) -> Job:
     tools = (Tool("roller", Roller((0.0, 0.0, top + p.roller_radius), p.roller_radius),
                   z=Linear(-p.deflection)),
              Tool("support", Roller((p.span / 2, 0.0, -p.roller_radius), p.roller_radius)))
-    contacts = (Contact("skin_top", "top", "roller", friction=p.tool_friction),
-                Contact("skin_bottom", "bottom", "support", friction=p.tool_friction))
+    # fabric on a tool: the elastic-slip stick law, as on the core (docs/theory.md §11).
+    # On a frictionless core nothing else holds a skin in its plane, and a 0/90 skin has
+    # an almost free trellis mode; the augmented stick constraint pins the nodes the
+    # rollers touch (with elastic slip the first step did not converge)
+    stick = "augmented" if p.interface == "frictionless" else "elastic_slip"
+    contacts = (Contact("skin_top", "top", "roller", friction=p.tool_friction, stick=stick),
+                Contact("skin_bottom", "bottom", "support", friction=p.tool_friction,
+                        stick=stick))
     scene = Scene(name="sandwich_bending", mesh=mesh, bodies=bodies, displacements=symmetry,
                   tools=tools, contacts=contacts, interfaces=interfaces)
 

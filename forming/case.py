@@ -53,8 +53,10 @@ def _convert(name: str, text: str, hint) -> object:
     return text
 
 
-def parse_params(params_cls: type, assignments: list[str]) -> object:
+def parse_params(params_cls: type, assignments: list[str], prefix: str = "") -> object:
     """Build ``params_cls`` from its defaults and ``key=value`` strings.
+
+    ``prefix`` is prepended to the key in error messages (``explicit.``).
 
     Raises:
         InputError: Malformed assignment, unknown key (listing the known ones) or a value
@@ -69,8 +71,9 @@ def parse_params(params_cls: type, assignments: list[str]) -> object:
         key, text = item.split("=", 1)
         key = key.strip()
         if key not in known:
-            raise InputError(f"--set {key}", f"unknown parameter; known: {sorted(known)}")
-        values[key] = _convert(f"--set {key}", text.strip(), hints[key])
+            raise InputError(f"--set {prefix}{key}",
+                             f"unknown parameter; known: {sorted(prefix + k for k in known)}")
+        values[key] = _convert(f"--set {prefix}{key}", text.strip(), hints[key])
     return params_cls(**values)
 
 
@@ -97,16 +100,65 @@ def load_case(name: str) -> types.ModuleType:
     return module
 
 
+@dataclasses.dataclass(frozen=True)
+class SolverChoice:
+    """Solver settings every case accepts (``--set solver=explicit``).
+
+    Attributes:
+        solver: ``"implicit"`` or ``"explicit"``; None: the case's own choice.
+    """
+
+    solver: typing.Literal["implicit", "explicit"] | None = None
+
+
+def _split_solver_settings(assignments: list[str]) -> tuple[list[str], list[str], list[str]]:
+    """Split ``--set`` items into the solver choice, ``explicit.*`` settings and the rest."""
+    choice, explicit, rest = [], [], []
+    for item in assignments:
+        key = item.split("=", 1)[0].strip()
+        if key == "solver":
+            choice.append(item)
+        elif key.startswith("explicit."):
+            explicit.append(item.strip()[len("explicit."):])
+        else:
+            rest.append(item)
+    return choice, explicit, rest
+
+
+def apply_solver_settings(job, choice: list[str], explicit: list[str]):
+    """The job with the solver and explicit settings given on the command line."""
+    from forming.solver.explicit import ExplicitOptions
+
+    picked = parse_params(SolverChoice, choice)
+    if picked.solver is not None:
+        job = dataclasses.replace(job, solver=picked.solver)
+    if explicit:
+        base = dataclasses.asdict(job.explicit)
+        given = dataclasses.asdict(parse_params(ExplicitOptions, explicit, "explicit."))
+        keys = {item.split("=", 1)[0].strip() for item in explicit}
+        job = dataclasses.replace(job, explicit=ExplicitOptions(
+            **(base | {k: given[k] for k in keys})))
+    return job
+
+
 def run_case(name: str, out: Path, assignments: list[str], build=None, params_cls=None) -> dict:
-    """Run case ``name`` with ``--set`` assignments; write the output contract into ``out``."""
+    """Run case ``name`` with ``--set`` assignments; write the output contract into ``out``.
+
+    Besides the case's parameters every case accepts ``solver=implicit|explicit`` and
+    ``explicit.<setting>=value`` (:class:`~forming.solver.explicit.ExplicitOptions`).
+    """
     from forming.run import simulate
 
     if build is None:
         module = load_case(name)
         build, params_cls = module.build, module.Params
-    params = parse_params(params_cls, assignments)
-    job = build(params)
-    return simulate(job, Path(out), name, dataclasses.asdict(params))
+    choice, explicit, rest = _split_solver_settings(assignments)
+    params = parse_params(params_cls, rest)
+    job = apply_solver_settings(build(params), choice, explicit)
+    recorded = dataclasses.asdict(params) | {"solver": job.solver}
+    if job.solver == "explicit":
+        recorded["explicit"] = dataclasses.asdict(job.explicit)
+    return simulate(job, Path(out), name, recorded)
 
 
 def _apply_petsc_args(extra: list[str]) -> None:
@@ -159,8 +211,10 @@ def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
               + (f" ({summary['reason']})" if summary["reason"] else ""))
         for k, v in summary["metrics"].items():
             print(f"  {k} = {v}")
-        print(f"  wall {summary['timing']['wall_s']:.2f} s, {summary['timing']['steps']} steps, "
-              f"{summary['timing']['newton_iterations']} Newton iterations")
+        timing = summary["timing"]
+        work = (f"{timing['time_steps']} time increments" if "time_steps" in timing
+                else f"{timing['newton_iterations']} Newton iterations")
+        print(f"  wall {timing['wall_s']:.2f} s, {timing['steps']} steps, {work}")
         print(f"outputs in {Path(out).resolve()}")
     return 0 if summary["status"] == "completed" else 1
 

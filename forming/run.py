@@ -7,6 +7,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal, Protocol
 
 import numpy as np
 
@@ -15,7 +16,8 @@ from forming.log import Progress
 from forming.model import Model
 from forming.output import Recorder
 from forming.scene import Scene
-from forming.solver.implicit import ImplicitSolver, NewtonOptions
+from forming.solver.explicit import ExplicitOptions, ExplicitSolver
+from forming.solver.implicit import ImplicitSolver, NewtonOptions, StepResult
 from forming.solver.stepping import StepControl, Stepper, StepTooSmall
 
 log = logging.getLogger(__name__)
@@ -39,6 +41,9 @@ class Job:
         plots: PNG plots from the history (called on rank 0).
         pictures: PNG pictures of the final state (collective: gathers on rank 0).
         field_every: Write ParaView fields every this many converged steps (and last).
+        solver: ``"implicit"`` (Newton, load steps) or ``"explicit"`` (central
+            differences in time; a step is then an output interval).
+        explicit: Settings of the explicit solver.
     """
 
     scene: Scene
@@ -49,6 +54,52 @@ class Job:
     plots: Plots | None = None
     pictures: Pictures | None = None
     field_every: int = 1
+    solver: Literal["implicit", "explicit"] = "implicit"
+    explicit: ExplicitOptions = field(default_factory=ExplicitOptions)
+
+
+class Solver(Protocol):
+    """What the step lifecycle needs of a solver (implicit or explicit)."""
+
+    retries_on_failure: bool  # a failed step is cut back and retried
+    last_augmentations: int
+    assembly_seconds: float
+
+    def predict(self, t_new: float, t_old: float, dt_old: float) -> None:
+        """Prepare the step to ``t_new`` (the model's load is already set)."""
+
+    def solve(self) -> StepResult:
+        """Take the step."""
+
+    def accept(self, u_before: list, force_scale: float = 0.0) -> None:
+        """The step converged and was committed."""
+
+    def reject(self) -> None:
+        """The step failed; the model was restored to its snapshot."""
+
+    def history_row(self) -> dict[str, float]:
+        """Solver columns of the history row."""
+
+    def metrics(self) -> dict:
+        """Solver figures for ``summary.json`` metrics."""
+
+    def timing(self) -> dict:
+        """Solver figures for ``summary.json`` timing."""
+
+
+def make_solver(job: Job, model: Model) -> tuple[Solver, StepControl]:
+    """The job's solver for ``model``, and the step control it walks the load with.
+
+    The explicit solver's steps are output intervals of fixed size (the job's largest
+    load step unless ``explicit.output_interval`` says otherwise).
+    """
+    if job.solver == "implicit":
+        return ImplicitSolver(model, job.newton), job.steps
+    if job.solver != "explicit":
+        raise ValueError(f"unknown solver {job.solver!r}")
+    size = job.explicit.output_interval or job.steps.max
+    return (ExplicitSolver(model, job.explicit),
+            StepControl(initial=size, max=size, min=size, stops=job.steps.stops))
 
 
 class _Fields:
@@ -95,11 +146,11 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
     t_start = time.perf_counter()
     comm = job.scene.mesh.mesh.comm
     model = Model(job.scene)
-    solver = ImplicitSolver(model, job.newton)
+    solver, steps = make_solver(job, model)
     jit_s = time.perf_counter() - t_start
     recorder = Recorder(out, comm)
     fields = _Fields(model, recorder)
-    stepper = Stepper(job.steps)
+    stepper = Stepper(steps)
     progress = Progress(case)
     newton_total = 0
     newton_accepted = 0
@@ -141,6 +192,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
                             key, slip, itf.spec.slip_warning, itf.edge)
         if model.constraints:
             row["augmentations"] = solver.last_augmentations
+        row |= solver.history_row()
         if job.probe is not None:
             row |= job.probe(model)
         recorder.record(row)
@@ -178,6 +230,11 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
                 written_t = t_new
             continue
         model.restore(snap)
+        solver.reject()
+        if not solver.retries_on_failure:
+            status, reason = "failed", f"at load parameter {t_old:.6g}: {res.reason}"
+            log.error("run stopped: %s", reason)
+            break
         log.warning("step to t=%.5f failed after %d iterations: %s; cutting back",
                     t_new, res.iterations, res.reason)
         try:
@@ -194,6 +251,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
     recorder.close()
 
     metrics = job.metrics(recorder, model) if job.metrics is not None else {}
+    metrics |= solver.metrics()
     wall_s = time.perf_counter() - t_start
     bodies = list(model.bodies.values())
     summary = {
@@ -208,7 +266,8 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
             "newton_per_step": newton_accepted / max(stepper.n_accepted, 1),
             "kernel_s": comm.allreduce(sum(b.kernel_seconds for b in bodies)) / comm.size,
             "assembly_s": comm.allreduce(solver.assembly_seconds) / comm.size,
-        },
+        } | solver.timing(),
+        "solver": job.solver,
         "ranks": comm.size,
         "mesh": {"cells": sum(comm.allreduce(b.n_local_cells) for b in bodies),
                  "dofs": sum(b.V.dofmap.index_map.size_global * 3 for b in bodies),

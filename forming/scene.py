@@ -10,12 +10,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
 from forming.errors import InputError
 from forming.materials.fabric import NonCrimpFabric
-from forming.materials.solids import SolidMaterial
+from forming.materials.solids import SolidMaterial, check_density
 from forming.mesh import MeshData
 
 
@@ -65,18 +66,21 @@ class Body:
         material: Its material (elastic, crushable foam, or a fabric layer).
         region: Volume physical group; ``None`` for the whole mesh.
         degree: Polynomial degree of the displacement.
+        density: Mass density [tonne/mm^3] for explicit dynamics; None: the material's.
     """
 
     name: str
     material: SolidMaterial | NonCrimpFabric
     region: str | None = None
     degree: int = 1
+    density: float | None = None
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():
             raise InputError("body.name", f"must be an identifier, got {self.name!r}")
         if self.degree not in (1, 2):
             raise InputError("body.degree", f"must be 1 or 2, got {self.degree!r}")
+        check_density(self.density, "body.density")
 
 
 @dataclass(frozen=True)
@@ -206,6 +210,12 @@ class Contact:
             largest elastic stiffness and the smallest surface edge.
         tolerance: Admissible penetration [mm]; default 1% of the smallest surface edge
             or of the body's thickness, whichever is smaller.
+        stick: How a sticking node is held: ``"augmented"`` (a stick constraint with
+            Uzawa updates: no slip while sticking) or ``"elastic_slip"`` (a penalty of
+            stiffness mu p / s_el with s_el = 0.5% of the facet edge, Abaqus' default;
+            no Uzawa; the stiffness vanishes with the pressure, so nodes that touch at
+            zero pressure, such as a fabric under a blank holder, do not cycle
+            between stick and slip; docs/theory.md, section 11).
     """
 
     body: str
@@ -214,10 +224,14 @@ class Contact:
     friction: float = 0.0
     penalty: float | None = None
     tolerance: float | None = None
+    stick: Literal["augmented", "elastic_slip"] = "augmented"
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.friction) and self.friction >= 0):
             raise InputError("contact.friction", f"must be >= 0, got {self.friction!r}")
+        if self.stick not in ("augmented", "elastic_slip"):
+            raise InputError("contact.stick", f"must be 'augmented' or 'elastic_slip', "
+                             f"got {self.stick!r}")
         for name in ("penalty", "tolerance"):
             v = getattr(self, name)
             if v is not None and not (math.isfinite(v) and v > 0):

@@ -67,7 +67,7 @@ def test_hertz_force_indentation(tmp_path):
     assert h["max_penetration_mm"].max() <= 1e-5
 
 
-def _sled(tmp, mu: float, drag: bool, tolerance=None):
+def _sled_scene(mu: float, drag: bool, tolerance=None, stick="augmented") -> Scene:
     """Core block 100 x 50 x 20 mm under 2 kPa on a table (ASTM D1894 sled)."""
     mesh = box((100.0, 50.0, 20.0), (8, 4, 2))
     if drag:  # the table moves, the sled's top plate is held
@@ -81,7 +81,13 @@ def _sled(tmp, mu: float, drag: bool, tolerance=None):
     scene = Scene("sled", mesh, (Body("core", honeycomb_core()),), displacements=disp,
                   tractions=tractions, tools=(table,),
                   contacts=(Contact("core", "bottom", "table", friction=mu,
-                                    tolerance=tolerance),))
+                                    tolerance=tolerance, stick=stick),))
+    return scene
+
+
+def _sled(tmp, mu: float, drag: bool, tolerance=None, stick="augmented"):
+    """Run the sled; returns the summary and the history."""
+    scene = _sled_scene(mu, drag, tolerance, stick)
 
     def sole_slip(model) -> dict[str, float]:
         """Mean (sliding of the sled) and largest tangential displacement of the sole's
@@ -98,10 +104,12 @@ def _sled(tmp, mu: float, drag: bool, tolerance=None):
     return s, _history(tmp)
 
 
-@pytest.mark.parametrize("mu", [0.36, 0.52])
-def test_friction_sled_slides_at_mu(tmp_path, mu):
-    """Once sliding, tangential over normal force equals mu within 1% (here 1e-6)."""
-    s, h = _sled(tmp_path, mu, drag=True)
+@pytest.mark.parametrize(("mu", "stick"), [(0.36, "augmented"), (0.52, "augmented"),
+                                           (0.36, "elastic_slip")])
+def test_friction_sled_slides_at_mu(tmp_path, mu, stick):
+    """Once sliding, tangential over normal force equals mu within 1% (here 1e-6), with
+    either stick law."""
+    s, h = _sled(tmp_path, mu, drag=True, stick=stick)
     assert s["status"] == "completed"
     assert h["force_table_z_N"][-1] == pytest.approx(-10.0, rel=1e-6)  # 2 kPa x 5000 mm^2
     ratio = np.abs(h["force_table_x_N"][1:] / h["force_table_z_N"][1:])
@@ -192,3 +200,19 @@ def test_hemisphere_holder_increases_crushing_default_mesh(tmp_path):
     held = run_case("hemisphere", tmp_path / "held", ["blank_holder=true"])["metrics"]
     assert held["crushed_volume_under_punch_mm3"] > free["crushed_volume_under_punch_mm3"]
     assert free["edge_lift_max_mm"] > 5.0 > 0.1 > held["edge_lift_max_mm"]
+
+
+@pytest.mark.parametrize("t", [0.01, 0.5])
+def test_elastic_slip_contact_jacobian_taylor(t):
+    """Slopes 1 and 2 of the Taylor remainders of a block pressed onto a moving table with
+    the elastic-slip stick law: table moved 0.05 mm (within the elastic slip: sticking)
+    or 2.5 mm (sliding), at a perturbed state with nodes open and closed.
+
+    A second-remainder slope of 1 would mean the pressure-dependent stick stiffness
+    (mu p / s_el) or the slip direction is not differentiated consistently.
+    """
+    from test_interfaces import _block_taylor
+
+    s1, s2 = _block_taylor(Model(_sled_scene(0.36, True, stick="elastic_slip")), t=t)
+    assert np.all(np.abs(s1 - 1.0) < 0.1), s1
+    assert np.all(s2 > 1.9), s2

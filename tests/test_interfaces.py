@@ -121,3 +121,27 @@ def test_sandwich_bending_between_bonded_and_frictionless(tmp_path):
             assert s["metrics"]["end_slip_mm"] < 1e-3
     assert k["bonded"] > k["frictional"] > k["frictionless"]
     assert end_slip > 0.1
+
+
+def test_hemisphere_skins_with_holder_full_stroke(tmp_path):
+    """The sandwich (core and two fabric skins) formed over the full 50 mm stroke with the
+    blank holder clamping the flange, coarse mesh (issue #4, stability).
+
+    Every interface node under the holder starts at zero pressure, the skins are pushed
+    into compression over the die radius, and they slide many millimetres over the core:
+    a stall, an inverted element or a skin sinking into the core fails this test.
+    """
+    s = run_case("hemisphere", tmp_path, ["skins=true", "blank_holder=true", "cells=8,8,2"])
+    assert s["status"] == "completed", s["reason"]
+    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    m = s["metrics"]
+    assert np.all(h["min_det_F"] > 0.0)
+    assert m["max_penetration_mm"] <= m["penetration_tolerance_mm"]
+    for side in ("bottom", "top"):
+        # interface tolerance: 1% of the 0.4 mm skin
+        assert np.all(h[f"penetration_interface_{side}_mm"] <= 0.004 + 1e-12)
+    assert m["edge_lift_max_mm"] < 0.1  # the holder keeps the flange down
+    assert m["skin_core_slip_max_mm"] > 1.0  # the skins slide over the core
+    assert m["shear_min_deg"] < -5.0 < 5.0 < m["shear_max_deg"]
+    section = np.pi * 50.0**2
+    assert 0.01 * 0.25 * section < m["punch_force_max_N"] < 4.0 * section

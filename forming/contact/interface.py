@@ -124,6 +124,11 @@ class InterfaceTerm:
                 self.pressure = 0.5 * (trial_p + ufl.sqrt(trial_p * trial_p + delta * delta))
             else:
                 self.pressure = ufl.conditional(ufl.ge(trial_p, 0.0), trial_p, 0.0)
+            # the Uzawa update uses the exact (kinked) ramp: its fixed point is exact
+            # complementarity, and the smoothing only changes the Newton iterates' force by
+            # at most delta / 2 (an equivalent penetration of smoothing / 2 x tolerance);
+            # updating with the smoothed ramp drove lam * gap to a constant, slowly
+            self._uzawa_pressure = ufl.conditional(ufl.ge(trial_p, 0.0), trial_p, 0.0)
             traction = self.pressure * n
         self.u1_prev = fem.Function(first.V)
         self.u2_prev = fem.Function(second.V)
@@ -157,7 +162,7 @@ class InterfaceTerm:
         self._area = self._assemble(self._form(w("+") * dS))
         self._area_v = np.repeat(self._area, 3)
         if self.pressure is not None:
-            self._p_form = self._form(self.pressure * w("+") * dS)
+            self._p_form = self._form(self._uzawa_pressure * w("+") * dS)
             self._g_form = self._form(self.gap * w("+") * dS)
         if self.lam_t is not None:
             new_t = self.traction if self.bonded else self.shear

@@ -51,6 +51,8 @@ class ContactTerm:
         stiffness = body.contact_stiffness()
         self.penalty = contact.penalty or 10.0 * stiffness / h
         self.friction = contact.friction
+        # elastic slip of the penalty stick law (None: augmented stick constraint)
+        self.elastic_slip = 0.005 * h if contact.stick == "elastic_slip" else None
         self.ds = body.domain.ds(contact.region, quadrature_rule="vertex", quadrature_degree=1)
         W = fem.functionspace(msh, ("Lagrange", 1))
         self.lam_n = fem.Function(W, name=f"pressure_{tool.name}")
@@ -104,9 +106,12 @@ class ContactTerm:
         if self.lam_t is not None:
             proj = ufl.Identity(3) - ufl.outer(normal, normal)
             slip = proj * (u - self.u_prev - (self.offset - self.offset_prev))
-            trial = proj * self.lam_t - self.eps * slip
-            size = ufl.sqrt(ufl.dot(trial, trial) + 1e-30)
             limit = self.friction * pressure
+            # augmented: the stick constraint's penalty; elastic slip: mu p / s_el, which
+            # vanishes with the pressure (docs/theory.md, section 11)
+            k_t = self.eps if self.elastic_slip is None else limit / self.elastic_slip
+            trial = proj * self.lam_t - k_t * slip
+            size = ufl.sqrt(ufl.dot(trial, trial) + 1e-30)
             # stick up to the cone (+1e-12 MPa): a node that just touches, with zero
             # pressure and zero trial shear, sticks instead of slipping in a round-off
             # direction
@@ -145,7 +150,7 @@ class ContactTerm:
         own = self._owned
         change = np.abs(self._p_new.x.array[own] - self.lam_n.x.array[own])
         worst = self._reduce_max(change) / self.penalty
-        if self.lam_t is not None:
+        if self.lam_t is not None and self.elastic_slip is None:
             self._t_new.interpolate(self._t_expr, cells0=self._cells)
             new = self._t_new.x.array.reshape(-1, 3)[own]
             old = self.lam_t.x.array.reshape(-1, 3)[own]
@@ -158,7 +163,7 @@ class ContactTerm:
         d = self._dofs
         self.lam_n.x.array[d] = self._p_new.x.array[d]
         self.lam_n.x.scatter_forward()
-        if self.lam_t is not None:
+        if self.lam_t is not None and self.elastic_slip is None:
             self.lam_t.x.array.reshape(-1, 3)[d] = self._t_new.x.array.reshape(-1, 3)[d]
             self.lam_t.x.scatter_forward()
 

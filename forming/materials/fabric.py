@@ -275,6 +275,8 @@ class NonCrimpFabric:
         transverse_shear_modulus: ``G_t`` [MPa] of the transverse-shear term (0 disables it).
         critical_angles_deg: Wrinkling onset (positive > 0, negative < 0) [deg].
         toe_strain: Width of the fibres' toe, over which tension stiffness sets in.
+        areal_mass: Mass per unit area of a ply [tonne/mm^2]: FCIM359's 440 g/m^2
+            (stated); sets the layer's density (explicit dynamics).
     """
 
     thickness: float = 0.4
@@ -287,10 +289,16 @@ class NonCrimpFabric:
     transverse_shear_modulus: float = 1.0
     critical_angles_deg: tuple[float, float] = (42.0, -50.0)
     toe_strain: float = 1e-3
+    areal_mass: float = 4.4e-10
+
+    @property
+    def density(self) -> float:
+        """Mass density of the layer [tonne/mm^3]: areal mass over ply thickness."""
+        return self.areal_mass / self.thickness
 
     def __post_init__(self) -> None:
         for name in ("thickness", "fibre_modulus", "bulk_modulus", "shear_modulus",
-                     "toe_strain"):
+                     "toe_strain", "areal_mass"):
             _positive(name, getattr(self, name))
         g = self.transverse_shear_modulus
         if not (isinstance(g, int | float) and math.isfinite(g) and g >= 0):

@@ -50,7 +50,8 @@ def honeycomb_core(
     el = _values(data[elasticity])
     foam = _values(data["foam"])
     measure = el.pop("strain_measure")
-    known = set(el) | {"k", "kt", "strain_measure", "viscosity"}
+    known = set(el) | {"k", "kt", "strain_measure", "viscosity", "density"}
+    density = data["mass"]["density"]["value"]
     for key, val in overrides.items():
         if key not in known:
             raise InputError(f"core.{key}", f"unknown core parameter; known: {sorted(known)}")
@@ -58,12 +59,15 @@ def honeycomb_core(
             el[key] = val
         elif key == "strain_measure":
             measure = val
+        elif key == "density":
+            density = val
         else:
             foam[key] = val
     law = (TransverselyIsotropicElasticity(**el) if elasticity == "transverse"
            else IsotropicElasticity(**el))
     if not plastic:
-        return ElasticSolid(law, strain_measure=measure)
+        return ElasticSolid(law, strain_measure=measure, density=density)
     path = Path(curve) if curve is not None else Path(str(DATA / foam["curve"]))
     return CrushableFoam(law, CompressionCurve.from_csv(path), k=foam["k"], kt=foam["kt"],
-                         strain_measure=measure, viscosity=foam.get("viscosity", 0.0))
+                         strain_measure=measure, viscosity=foam.get("viscosity", 0.0),
+                         density=density)

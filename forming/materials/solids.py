@@ -107,6 +107,13 @@ def _measure(name: str) -> int:
     return _MEASURES[name]
 
 
+def check_density(value: float | None, field: str = "material.density") -> None:
+    """Raise :class:`InputError` unless ``value`` is None or a positive finite number."""
+    if value is not None and not (isinstance(value, int | float) and math.isfinite(value)
+                                  and value > 0):
+        raise InputError(field, f"must be a positive mass density [t/mm^3], got {value!r}")
+
+
 @dataclass(frozen=True)
 class ElasticSolid:
     """Hyperelastic solid, quadratic in the Hencky (or Biot) strain. Carries no state.
@@ -115,13 +122,16 @@ class ElasticSolid:
         elasticity: Isotropic or transversely isotropic elasticity.
         strain_measure: ``"hencky"`` (logarithmic), ``"biot"``, or ``"biot-hencky"``
             (Biot in principal extension, Hencky in principal compression).
+        density: Mass density [tonne/mm^3] (explicit dynamics only; None: not given).
     """
 
     elasticity: Elasticity
     strain_measure: StrainMeasure = "hencky"
+    density: float | None = None
 
     def __post_init__(self) -> None:
         _measure(self.strain_measure)
+        check_density(self.density)
 
     @property
     def plastic(self) -> bool:
@@ -173,6 +183,7 @@ class CrushableFoam:
             mapping solves ``f = eta * dgamma / dt`` (Duvaut-Lions overstress), which
             keeps Newton on a unique path through softening; 0 (default) is
             rate-independent, as the paper's core.
+        density: Mass density [tonne/mm^3] (explicit dynamics only; None: not given).
     """
 
     elasticity: Elasticity
@@ -181,8 +192,11 @@ class CrushableFoam:
     kt: float = 0.1
     strain_measure: StrainMeasure = "hencky"
     viscosity: float = 0.0
+    density: float | None = None
+
     def __post_init__(self) -> None:
         _measure(self.strain_measure)
+        check_density(self.density)
         if not (0.0 < self.k < 3.0):
             raise InputError("material.k", f"must lie in (0, 3), got {self.k!r}")
         if not (0.0 <= self.kt):

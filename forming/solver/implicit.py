@@ -137,6 +137,8 @@ class ImplicitSolver:
         options: Newton and linear-solver settings.
     """
 
+    retries_on_failure = True  # a step that fails is cut back and retried
+
     def __init__(self, model: Model, options: NewtonOptions | None = None):
         self.model = model
         self.options = options or NewtonOptions()
@@ -294,3 +296,18 @@ class ImplicitSolver:
         """
         self._u_prev = u_before
         self._force_scale = force_scale
+
+    def reject(self) -> None:
+        """Nothing to undo: the model's snapshot holds the whole state."""
+
+    def history_row(self) -> dict[str, float]:
+        """No columns beyond the lifecycle's (augmentations are recorded there)."""
+        return {}
+
+    def metrics(self) -> dict:
+        """No solver metrics."""
+        return {}
+
+    def timing(self) -> dict:
+        """No timing beyond the lifecycle's (Newton counts are kept there)."""
+        return {}
