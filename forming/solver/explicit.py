@@ -428,7 +428,8 @@ class ExplicitSolver:
         reason = ""
         ok = True
         try:
-            self.dt = self._stable_dt()
+            if self.time_steps:  # the constructor evaluated the bound at the start
+                self.dt = self._stable_dt()
             while self.tau < tau_end * (1 - 1e-12):
                 n_left = math.ceil((tau_end - self.tau) / self.dt - 1e-9)
                 dt = (tau_end - self.tau) / max(n_left, 1)
