@@ -202,7 +202,6 @@ class ExplicitSolver:
         by_name = {st.name: st for st in self.states}
         tests = {n: ufl.TestFunction(b.V) for n, b in model.bodies.items()}
         emaps = model.entity_maps or None
-        self._full = [fem.form(f, entity_maps=emaps) for f in model.residuals()]
         self._internal = [fem.form(b.residual(tests[n]), entity_maps=emaps)
                           for n, b in model.bodies.items()]
         # contact and interface tractions on their own: tool work and friction energy
@@ -215,6 +214,12 @@ class ExplicitSolver:
             r1, r2 = itf.residuals(tests[itf.spec.body], tests[itf.spec.other])
             self._sides += [_ExternalTerm(by_name[itf.spec.body], fem.form(r1, entity_maps=emaps)),
                             _ExternalTerm(by_name[itf.spec.other], fem.form(r2, entity_maps=emaps))]
+        # distributed loads: external forces that are neither contact nor interface
+        self._loads = [_ExternalTerm(by_name[tr.body], fem.form(
+            -ufl.dot(const, tests[tr.body]) * ds, entity_maps=emaps))
+            for tr, const, ds in model.tractions]
+        # every external term once; the full residual is their sum with the internal forces
+        self._terms = [*self._tools, *self._sides, *self._loads]
         self._stiffness = self._stiffness_forms(tests)
         self.mass_added_fraction = self._scale_masses()
         self.tau = 0.0
@@ -231,8 +236,6 @@ class ExplicitSolver:
         self._impulse: dict[str, np.ndarray] = {}
         self._tau_start = 0.0
         self._assemble_forces()  # forces at rest (e.g. a preload) give a_0
-        for term in (*self._tools, *self._sides):
-            term.update()
         for st in self.states:
             self._accelerate(st)
         log.info("explicit: stable time step %.3g s, about %d increments, mass added %.3g%%",
@@ -256,8 +259,10 @@ class ExplicitSolver:
                 if itf.spec.other == st.name:
                     terms.append(2.0 * itf.eps * ufl.dot(ones, w("-")) * itf.dS)
             pen = sum(terms[1:], terms[0]) if terms else None
-            out.append((st.body.domain.form(jac[i][i]),
-                        None if pen is None else st.body.domain.form(pen)))
+            # coupled blocks reach into the other bodies: every body's entity map
+            maps = model.entity_maps or None
+            out.append((fem.form(jac[i][i], entity_maps=maps),
+                        None if pen is None else fem.form(pen, entity_maps=maps)))
         return out
 
     def _row_sums(self) -> list[np.ndarray]:
@@ -319,9 +324,12 @@ class ExplicitSolver:
         t0 = time.perf_counter()
         for st in self.states:
             st.body.update_material(want_tangent=False)
-        for st, full, internal in zip(self.states, self._full, self._internal, strict=True):
+        for st, internal in zip(self.states, self._internal, strict=True):
             _assembled(internal, st.f_int)
-            _assembled(full, st.f_all)
+            st.f_all.x.array[:] = st.f_int.x.array
+        for term in self._terms:
+            term.update()
+            term.state.f_all.x.array[:] += term.vec.x.array
         self.assembly_seconds += time.perf_counter() - t0
 
     def _accelerate(self, st: _BodyState) -> None:
@@ -350,8 +358,6 @@ class ExplicitSolver:
                 bc.set(st.body.u.x.array)
             st.v[st.fixed] = (st.body.u.x.array[st.fixed] - u0[st.fixed]) / dt
         self._assemble_forces()
-        for term in (*self._tools, *self._sides):
-            term.update()
         # works over the increment (trapezoidal rule)
         w_int = w_ext = 0.0
         du = {}
@@ -417,7 +423,7 @@ class ExplicitSolver:
         self.model.set_load(self.options.load(self.tau))
         self._snap = ([(st.v.copy(), st.a.copy(), st.f_int.x.array.copy(),
                         st.f_all.x.array.copy()) for st in self.states],
-                      [t.vec.x.array.copy() for t in (*self._tools, *self._sides)],
+                      [t.vec.x.array.copy() for t in self._terms],
                       self.tau, dict(self.energy), self.time_steps)
 
     def solve(self) -> StepResult:
@@ -462,7 +468,7 @@ class ExplicitSolver:
         for st, (v, a, fi, fa) in zip(self.states, states, strict=True):
             st.v[:], st.a[:] = v, a
             st.f_int.x.array[:], st.f_all.x.array[:] = fi, fa
-        for t, vec in zip((*self._tools, *self._sides), terms, strict=True):
+        for t, vec in zip(self._terms, terms, strict=True):
             t.vec.x.array[:] = vec
 
     # -- reporting --------------------------------------------------------------------------
