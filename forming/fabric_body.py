@@ -91,7 +91,7 @@ class FabricBody:
         """Second variation of the strain energy."""
         return ufl.derivative(self.residual(v), self.u, du)
 
-    def update_material(self, want_tangent: bool = True) -> None:
+    def update_material(self, want_tangent: bool = True, frozen: bool = False) -> None:
         """Nothing to evaluate outside the forms (kept for the solver's interface)."""
 
     def invalidate(self) -> None:

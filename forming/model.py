@@ -154,14 +154,17 @@ class SolidBody:
         return ufl.inner(dP, ufl.grad(v)) * self.dx
 
     # -- quadrature-point update ---------------------------------------------------------
-    def update_material(self, want_tangent: bool = True) -> None:
+    def update_material(self, want_tangent: bool = True, frozen: bool = False) -> None:
         """Evaluate stress (and tangent, trial state) at the current displacement.
+
+        ``frozen`` evaluates a plastic material elastically about its committed plastic
+        state (the unloading stiffness); call :meth:`invalidate` afterwards.
 
         Raises:
             KernelFailure: An element is inverted or a return mapping failed.
         """
         key = self.u.x.array
-        if (self._evaluated_at is not None and want_tangent <= self._has_tangent
+        if (not frozen and self._evaluated_at is not None and want_tangent <= self._has_tangent
                 and np.array_equal(self._evaluated_at, key)):
             return
         t0 = time.perf_counter()
@@ -174,7 +177,7 @@ class SolidBody:
         ps = self.plastic
         res = evaluate(
             self.material, cm, None if ps is None else ps.ep, None if ps is None else ps.evp,
-            want_tangent=want_tangent, load_increment=self.load_increment,
+            want_tangent=want_tangent, load_increment=self.load_increment, frozen=frozen,
         )
         self.kernel_seconds += time.perf_counter() - t0
         if res.n_failed:
@@ -184,6 +187,9 @@ class SolidBody:
         self.S.x.array.reshape(-1, 6)[self._qdofs] = res.S
         if want_tangent:
             self.D.x.array.reshape(-1, 36)[self._qdofs] = res.D
+        if frozen:
+            self._evaluated_at = None
+            return
         if ps is not None:
             ps.ep_trial[:] = res.ep
             ps.evp_trial[:] = res.evp
@@ -242,6 +248,8 @@ class DirichletSet:
         self.bcs: list[fem.DirichletBC] = []
         self.bc_bodies: list[str] = []  # the body of each entry of ``bcs``
         self._reaction_forms: dict[str, fem.Form] = {}
+        # per reaction: its body and the indicator w (reaction = residual vector . w)
+        self.reaction_weights: dict[str, tuple[str, fem.Function]] = {}
         self.affine: list[tuple[AffineDisplacement, int, fem.Function]] = []
         for d in scene.displacements:
             body = bodies[d.body]
@@ -270,6 +278,7 @@ class DirichletSet:
                     key = f"{d.region}_{'xyz'[comp]}"
                     if len(bodies) > 1:
                         key = f"{d.body}_{key}"
+                    self.reaction_weights[key] = (d.body, w)
                     self._reaction_forms[key] = fem.form(
                         residual(d.body, w), entity_maps=_entity_maps(bodies) or None)
 

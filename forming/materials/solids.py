@@ -22,6 +22,9 @@ from forming.materials.elasticity import Elasticity
 log = logging.getLogger(__name__)
 
 StrainMeasure = Literal["hencky", "biot", "biot-hencky"]
+# a strength no stress reaches: evaluates a foam on its elastic branch (``frozen``)
+_OUT_OF_REACH = 1e30
+
 _MEASURES = {
     "hencky": kernels.MEASURE_HENCKY,
     "biot": kernels.MEASURE_BIOT,
@@ -71,11 +74,14 @@ def evaluate(
     want_tangent: bool = True,
     h: float = 1e-6,
     load_increment: float = 0.0,
+    frozen: bool = False,
 ) -> PointResult:
     """Evaluate a point material at right Cauchy-Green tensors ``cmats`` (n, 9).
 
     ``load_increment`` (the step in the load parameter) scales the viscous
     regularisation of a foam with ``viscosity > 0``; it is ignored otherwise.
+    ``frozen`` evaluates a plastic material elastically about its plastic state ``ep_n``
+    (the stiffness of elastic unloading, which sets the explicit stable time step).
     """
     k = material.kernel_data()
     n = cmats.shape[0]
@@ -90,11 +96,16 @@ def evaluate(
     ep_out, evp_out = ep_in.copy(), evp_in.copy()
     props = k.props
     eta = getattr(material, "viscosity", 0.0)
-    if eta > 0.0 and load_increment > 0.0:
+    ys, ds = k.ys, k.ds
+    if frozen:  # strengths out of reach: every update stays on the elastic trial branch
+        props = props.copy()
+        props[1], props[2] = _OUT_OF_REACH, 0.0
+        ys, ds = np.full_like(k.ys, _OUT_OF_REACH), np.zeros_like(k.ds)
+    elif eta > 0.0 and load_increment > 0.0:
         props = props.copy()
         props[2] = eta / load_increment
     nbad, worst = kernels.foam_points(
-        cm, ep_in, evp_in, k.cel, k.measure, props, k.xs, k.ys, k.ds, s, d, ep_out, evp_out,
+        cm, ep_in, evp_in, k.cel, k.measure, props, k.xs, ys, ds, s, d, ep_out, evp_out,
         want_tangent, h,
     )
     return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad), int(worst))

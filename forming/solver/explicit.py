@@ -49,8 +49,9 @@ class ExplicitOptions:
             mass added until it reaches this value [s] (reported as
             ``mass_added_fraction``); None: no mass scaling.
         damping: Mass-proportional damping coefficient alpha [1/s] (``a += -alpha v``).
-        output_interval: Load-parameter interval between history rows; None: the
-            job's largest load step.
+        output_interval: Load-parameter interval between history rows (the stable time
+            step is re-evaluated at each); None: the job's largest load step, at most
+            0.02.
         quasi_static_limit: Largest kinetic over internal energy of a run that counts as
             quasi-static (5%, the usual guideline for Abaqus/Explicit forming).
     """
@@ -234,6 +235,7 @@ class ExplicitSolver:
         self._snap = None
         self._s_end = 0.0
         self._impulse: dict[str, np.ndarray] = {}
+        self._reaction_impulse: dict[str, float] = {}
         self._tau_start = 0.0
         self._assemble_forces()  # forces at rest (e.g. a preload) give a_0
         for st in self.states:
@@ -274,7 +276,8 @@ class ExplicitSolver:
         sums = []
         for st, (jac, pen) in zip(self.states, self._stiffness, strict=True):
             st.body.invalidate()
-            st.body.update_material(want_tangent=True)
+            # elastic unloading is the stiffest response: plastic state frozen
+            st.body.update_material(want_tangent=True, frozen=True)
             A = assemble_matrix(jac)
             A.assemble()
             indptr, _cols, data = A.getValuesCSR()
@@ -342,6 +345,7 @@ class ExplicitSolver:
     def _increment(self, dt: float) -> None:
         """Advance by ``dt``: velocity, displacement, load, forces, acceleration, history."""
         model = self.model
+        by_name = {st.name: st for st in self.states}
         old = []
         for st in self.states:
             n = st.n_owned
@@ -390,6 +394,10 @@ class ExplicitSolver:
                 (term.r_old + term.r_new).reshape(-1, 3).sum(axis=0), op=MPI.SUM)
             tools += -float(force @ (term.contact.offset.value - off0))
             self._impulse[term.contact.tool.name] += force * dt
+        for key, (name, w) in self.model.dirichlet.reaction_weights.items():
+            st = by_name[name]
+            n = st.n_owned
+            self._reaction_impulse[key] += dt * float(st.f_all.x.array[:n] @ w.x.array[:n])
         w_int, w_ext, on_bodies = (self.comm.allreduce(v, op=MPI.SUM)
                                    for v in (w_int, w_ext, on_bodies))
         # what the tools put in, less what reached the nodes, went into friction (and
@@ -418,6 +426,7 @@ class ExplicitSolver:
         del t_old, dt_old
         self._s_end = t_new
         self._impulse = {t.contact.tool.name: np.zeros(3) for t in self._tools}
+        self._reaction_impulse = dict.fromkeys(self.model.dirichlet.reaction_weights, 0.0)
         self._tau_start = self.tau
         # the lifecycle set the load of the interval's end; the increments walk to it
         self.model.set_load(self.options.load(self.tau))
@@ -482,8 +491,10 @@ class ExplicitSolver:
 
         A penalty contact in explicit dynamics rings at the contact frequency, so the
         force at an instant scatters; like the anti-aliasing filter of Abaqus/Explicit's
-        history output, the tool forces written here are the means over the output
-        interval (impulse over time), replacing the instantaneous ``force_*`` columns.
+        history output, the tool forces and reactions written here are the means over the
+        output interval (impulse over time), replacing the instantaneous ``force_*`` and
+        ``reaction_*`` columns. A reaction is the static one (the residual at the
+        prescribed dofs, without the inertia of the moving nodes).
         """
         e = self.energy
         span = self.tau - self._tau_start
@@ -491,6 +502,8 @@ class ExplicitSolver:
         if span > 0:
             for name, imp in self._impulse.items():
                 forces |= {f"force_{name}_{'xyz'[i]}_N": float(imp[i] / span) for i in range(3)}
+            for key, imp in self._reaction_impulse.items():
+                forces[f"reaction_{key}_N"] = self.comm.allreduce(imp, op=MPI.SUM) / span
         return forces | {"time_s": self.tau, "time_step_s": self.dt,
                 "energy_kinetic_Nmm": e["kinetic"], "energy_internal_Nmm": e["internal"],
                 "energy_friction_Nmm": e["friction"], "energy_damping_Nmm": e["damping"],
