@@ -20,7 +20,7 @@ from forming.case import main
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
 from forming.output import plot_curves
-from forming.run import Job, relative_rms
+from forming.run import Job, Response, relative_rms
 from forming.scene import Body, Displacement, Linear, Scene
 from forming.solver.implicit import NewtonOptions
 from forming.solver.stepping import StepControl
@@ -101,6 +101,7 @@ def build(p: Params) -> Job:
         steps=StepControl(initial=0.01, max=p.max_step, min=1e-5, stops=stops),
         newton=NewtonOptions(linear_solver=p.linear_solver),
         probe=probe, metrics=metrics, plots=plots,
+        response=Response("reaction_top_z_N", stroke, -1.0, "platen force"),
     )
 
 

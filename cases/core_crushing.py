@@ -36,7 +36,7 @@ from forming.post import (
     plastic_strain_pictures,
     punch_force_plot,
 )
-from forming.run import Job
+from forming.run import Job, Response
 from forming.scene import Body, Contact, Displacement, Linear, Scene, Tool
 from forming.solver.implicit import NewtonOptions
 from forming.solver.stepping import StepControl
@@ -132,6 +132,7 @@ def build(p: Params) -> Job:
     return Job(scene=scene, steps=StepControl(initial=min(0.05, p.max_step), max=p.max_step),
                newton=NewtonOptions(linear_solver=p.linear_solver, line_search="bt"),
                probe=probe, metrics=metrics, plots=plots,
+               response=Response("force_punch_z_N", p.stroke + p.gap, 4.0, "punch force"),
                pictures=lambda model, out: plastic_strain_pictures(
                    model, out, "ymin", "Core crushing", tools_3d=("punch",)))
 

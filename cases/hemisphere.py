@@ -46,7 +46,7 @@ from forming.post import (
     punch_force_plot,
     shear_angle_picture,
 )
-from forming.run import Job
+from forming.run import Job, Response
 from forming.sandwich import Outline, sandwich_blank
 from forming.scene import Body, Contact, Displacement, Interface, Linear, Scene, Tool
 from forming.solver.implicit import NewtonOptions
@@ -211,7 +211,8 @@ def build(p: Params) -> Job:
                newton=NewtonOptions(linear_solver=p.linear_solver,
                                     line_search="basic" if p.skins else "bt"),
                probe=probe, metrics=metrics, plots=plots, field_every=5,
-               pictures=pictures)
+               pictures=pictures,
+               response=Response("force_punch_z_N", p.stroke, 4.0, "punch force"))
 
 
 if __name__ == "__main__":

@@ -110,3 +110,32 @@ def plot_curves(path: Path, series: list[tuple[np.ndarray, np.ndarray, str, str]
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def write_final_shape(path: Path, bodies: dict, comm: MPI.Comm) -> Path:
+    """Write every body's nodal reference coordinates and displacements to an ``.npz``.
+
+    Keys ``<body>_X`` and ``<body>_u`` hold (n, 3) arrays of the owned dofs of all ranks,
+    sorted by reference coordinates so that two runs of the same mesh line up row by row
+    whatever the partition (``forming compare`` reads this file).
+
+    Args:
+        path: File to write (on rank 0).
+        bodies: Model bodies by name (each with a vector function space ``V`` and ``u``).
+        comm: Communicator of the run (collective).
+    """
+    arrays: dict[str, np.ndarray] = {}
+    for name, body in bodies.items():
+        n = body.V.dofmap.index_map.size_local
+        bs = body.V.dofmap.index_map_bs
+        X = body.V.tabulate_dof_coordinates()[:n]
+        u = body.u.x.array[: n * bs].reshape(n, bs)
+        parts = comm.gather((X, u), root=0)
+        if comm.rank == 0:
+            X = np.concatenate([p[0] for p in parts])
+            u = np.concatenate([p[1] for p in parts])
+            order = np.lexsort(np.round(X, 9).T[::-1])
+            arrays[f"{name}_X"], arrays[f"{name}_u"] = X[order], u[order]
+    if comm.rank == 0:
+        np.savez_compressed(path, **arrays)
+    return path

@@ -14,7 +14,7 @@ import numpy as np
 from forming import compat
 from forming.log import Progress
 from forming.model import Model
-from forming.output import Recorder
+from forming.output import Recorder, write_final_shape
 from forming.scene import Scene
 from forming.solver.explicit import ExplicitOptions, ExplicitSolver
 from forming.solver.implicit import ImplicitSolver, NewtonOptions, StepResult
@@ -26,6 +26,27 @@ Probe = Callable[[Model], dict[str, float]]
 Metrics = Callable[[Recorder, Model], dict]
 Plots = Callable[[Recorder, Path], list[Path]]
 Pictures = Callable[[Model, Path], list[Path]]
+
+
+@dataclass(frozen=True)
+class Response:
+    """The force-travel curve that stands for a run (plotted and compared by solvers).
+
+    Attributes:
+        column: History column of the force [N].
+        travel: Travel at load parameter 1 [mm] (the curve's abscissa is ``t * travel``).
+        scale: Factor on the column (symmetry copies, or -1 for a reaction).
+        label: Name of the force in plots.
+    """
+
+    column: str
+    travel: float = 1.0
+    scale: float = 1.0
+    label: str = "force"
+
+    def curve(self, t: np.ndarray, column: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Travel [mm] and force [N] from the load parameters and the column."""
+        return np.asarray(t) * self.travel, self.scale * np.asarray(column)
 
 
 @dataclass(frozen=True)
@@ -44,6 +65,8 @@ class Job:
         solver: ``"implicit"`` (Newton, load steps) or ``"explicit"`` (central
             differences in time; a step is then an output interval).
         explicit: Settings of the explicit solver.
+        response: The run's force-travel curve; None: the first tool's z force (or the
+            first reaction) against the load parameter.
     """
 
     scene: Scene
@@ -56,6 +79,23 @@ class Job:
     field_every: int = 1
     solver: Literal["implicit", "explicit"] = "implicit"
     explicit: ExplicitOptions = field(default_factory=ExplicitOptions)
+    response: Response | None = None
+
+    def response_or_default(self) -> Response:
+        """The job's response, or the first tool's z force against the load parameter."""
+        if self.response is not None:
+            return self.response
+        if self.scene.tools:
+            return Response(f"force_{self.scene.tools[0].name}_z_N",
+                            label=f"{self.scene.tools[0].name} force")
+        for d in self.scene.displacements:
+            comps = [c for c in "zxy" if getattr(d, c) is not None]
+            if d.reaction and comps:
+                key = f"{d.region}_{comps[0]}"
+                if len(self.scene.bodies) > 1:
+                    key = f"{d.body}_{key}"
+                return Response(f"reaction_{key}_N", label=f"reaction {key}")
+        raise ValueError("the job has no tool and no reaction to compare")
 
 
 class Solver(Protocol):
@@ -90,14 +130,14 @@ class Solver(Protocol):
 def make_solver(job: Job, model: Model) -> tuple[Solver, StepControl]:
     """The job's solver for ``model``, and the step control it walks the load with.
 
-    The explicit solver's steps are output intervals of fixed size (the job's largest
-    load step unless ``explicit.output_interval`` says otherwise).
+    The explicit solver's steps are output intervals of fixed size: the job's largest
+    load step, at most 0.02, unless ``explicit.output_interval`` says otherwise.
     """
     if job.solver == "implicit":
         return ImplicitSolver(model, job.newton), job.steps
     if job.solver != "explicit":
         raise ValueError(f"unknown solver {job.solver!r}")
-    size = job.explicit.output_interval or job.steps.max
+    size = job.explicit.output_interval or min(job.steps.max, 0.02)
     return (ExplicitSolver(model, job.explicit),
             StepControl(initial=size, max=size, min=size, stops=job.steps.stops))
 
@@ -156,6 +196,7 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
     newton_accepted = 0
     status, reason = "completed", ""
     slip_warned: set[str] = set()
+    work = "increments" if job.solver == "explicit" else "newton"
 
     def record(res_its: int, res_norm: float, step_s: float) -> float:
         """Append a history row; return the step's force scale.
@@ -219,10 +260,10 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
             scale = record(res.iterations, res.residuals[-1] if res.residuals else 0.0,
                            res.seconds)
             solver.accept([u for u, _hist in snap["bodies"]], scale)
-            log.info("step %d t=%.5f dt=%.3g newton=%d |r|=%.2e %.2fs", stepper.n_accepted,
-                     t_new, stepper.last_dt, res.iterations,
+            log.info("step %d t=%.5f dt=%.3g %s=%d |r|=%.2e %.2fs", stepper.n_accepted,
+                     t_new, stepper.last_dt, work, res.iterations,
                      res.residuals[-1] if res.residuals else 0.0, res.seconds)
-            progress.update(t_new, f"step {stepper.n_accepted} newton {res.iterations}")
+            progress.update(t_new, f"step {stepper.n_accepted} {work} {res.iterations}")
             if stepper.n_accepted % job.field_every == 0 or stepper.done:
                 fields.update()
                 recorder.write_fields(t_new)
@@ -277,8 +318,9 @@ def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
         "parameters": parameters,
         "outputs": ["summary.json", "history.csv"]
         + [f"{stem}.bp" for stem in recorder.field_stems()]
-        + [f"tool_{t.name}.pvd" for t in job.scene.tools],
+        + [f"tool_{t.name}.pvd" for t in job.scene.tools] + ["final_shape.npz"],
     }
+    write_final_shape(recorder.out / "final_shape.npz", model.bodies, comm)
     if job.pictures is not None:
         summary["outputs"] += [p.name for p in job.pictures(model, recorder.out)]
     if comm.rank == 0 and job.plots is not None and recorder.rows:

@@ -1,0 +1,341 @@
+"""Cross-check of a case: the same scene run with the implicit and the explicit solver.
+
+``forming compare CASE`` runs ``CASE`` twice, into ``<out>/implicit`` and
+``<out>/explicit``, and compares what came out:
+
+- the force-travel curves (the job's :class:`~forming.run.Response`) on one plot, with the
+  RMS difference over the stroke and the difference in peak and final force, all relative
+  to the implicit peak force;
+- the final deformed shapes: the nodal distance between the two final configurations
+  (max and RMS, relative to the core thickness);
+- every scalar metric both runs report (crushed volume, shear-angle range, ...);
+- the explicit run's energy balance and kinetic/internal energy ratio;
+- the wall time of each.
+
+It writes ``report.md`` with PNGs and ``compare.json`` into ``<out>``. The explicit tool
+forces are means over each output interval (docs/theory.md, section 12), so they are
+compared at the interval midpoints.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from forming.errors import InputError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Targets:
+    """Acceptance limits of the cross-check (issue #5, item 4).
+
+    Attributes:
+        force_rms: Force-travel RMS difference relative to the peak force.
+        shape_rms: RMS nodal distance relative to the core thickness.
+        energy_balance: Explicit energy-balance error relative to the external work.
+    """
+
+    force_rms: float = 0.03
+    shape_rms: float = 0.02
+    energy_balance: float = 0.01
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """What one solver's run left on disk."""
+
+    summary: dict
+    history: dict[str, np.ndarray]
+    shape: dict[str, np.ndarray]
+
+    @classmethod
+    def load(cls, folder: Path) -> RunResult:
+        """Read ``summary.json``, ``history.csv`` and ``final_shape.npz`` of a run."""
+        summary = json.loads((folder / "summary.json").read_text())
+        data = np.genfromtxt(folder / "history.csv", delimiter=",", names=True)
+        history = {k: np.atleast_1d(data[k]).astype(float) for k in data.dtype.names}
+        with np.load(folder / "final_shape.npz") as z:
+            shape = {k: z[k] for k in z.files}
+        return cls(summary, history, shape)
+
+
+def _force_curves(response, imp: RunResult, exp: RunResult):
+    """Implicit and explicit (travel, force); explicit at its output intervals' midpoints."""
+    for run, name in ((imp, "implicit"), (exp, "explicit")):
+        if response.column not in run.history:
+            raise InputError("response.column",
+                             f"{response.column!r} is not in the {name} run's history.csv")
+    xi, fi = response.curve(imp.history["t"], imp.history[response.column])
+    t = exp.history["t"]
+    mid = np.concatenate([t[:1], 0.5 * (t[1:] + t[:-1])])
+    xe, fe = response.curve(mid, exp.history[response.column])
+    return (xi, fi), (xe, fe)
+
+
+def force_differences(imp_curve, exp_curve) -> dict[str, float]:
+    """RMS, peak and final force differences relative to the implicit peak |force|.
+
+    The implicit curve is interpolated linearly at the explicit abscissae inside its
+    range, and the differences are taken there: an explicit force is a mean over an
+    output interval, so a peak at the end of the stroke is compared with the implicit
+    force at the last interval's midpoint, not at the end. The implicit peak reported
+    (``peak_force_implicit_N``) is that of its own steps.
+    """
+    (xi, fi), (xe, fe) = imp_curve, exp_curve
+    peak = float(np.max(np.abs(fi)))
+    if peak == 0:
+        raise InputError("response", "the implicit force is zero throughout")
+    inside = (xe >= xi.min() - 1e-12) & (xe <= xi.max() + 1e-12)
+    xe, fe = xe[inside], fe[inside]
+    fi_at = np.interp(xe, xi, fi)
+    diff = fe - fi_at
+    i_peak, e_peak = fi[np.argmax(np.abs(fi))], fe[np.argmax(np.abs(fe))]
+    i_peak_at = fi_at[np.argmax(np.abs(fi_at))]
+    return {
+        "force_rms_diff_rel": float(np.sqrt(np.mean(diff**2)) / peak),
+        "force_max_diff_rel": float(np.max(np.abs(diff)) / peak),
+        "peak_force_implicit_N": float(i_peak),
+        "peak_force_explicit_N": float(e_peak),
+        "peak_force_diff_rel": float((e_peak - i_peak_at) / abs(i_peak_at)),
+        "final_force_implicit_N": float(fi[-1]),
+        "final_force_explicit_N": float(fe[-1]),
+        "final_force_diff_rel": float((fe[-1] - fi_at[-1]) / peak),
+    }
+
+
+def reference_thickness(shape: dict[str, np.ndarray]) -> float:
+    """The core's z extent (or the first body's) in the reference configuration [mm]."""
+    names = sorted(k[:-2] for k in shape if k.endswith("_X"))
+    name = "core" if "core" in names else names[0]
+    z = shape[f"{name}_X"][:, 2]
+    return float(z.max() - z.min())
+
+
+def shape_differences(imp: dict[str, np.ndarray], exp: dict[str, np.ndarray],
+                      thickness: float) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+    """Nodal distances between the final shapes, per body and over all bodies.
+
+    Returns:
+        The figures (``shape_rms_diff_rel_thickness``, ``shape_max_diff_rel_thickness``,
+        and per body ``shape_rms_diff_mm_<body>``), and each body's distances [mm].
+    """
+    dist: dict[str, np.ndarray] = {}
+    for key in sorted(k for k in imp if k.endswith("_X")):
+        name = key[:-2]
+        if key not in exp or exp[key].shape != imp[key].shape or not np.allclose(
+                exp[key], imp[key], atol=1e-6):
+            raise InputError("mesh", f"body {name!r}: the two runs have different meshes")
+        dist[name] = np.linalg.norm(exp[f"{name}_u"] - imp[f"{name}_u"], axis=1)
+    every = np.concatenate(list(dist.values()))
+    figures = {
+        "thickness_mm": thickness,
+        "shape_rms_diff_mm": float(np.sqrt(np.mean(every**2))),
+        "shape_max_diff_mm": float(every.max()),
+        "shape_rms_diff_rel_thickness": float(np.sqrt(np.mean(every**2)) / thickness),
+        "shape_max_diff_rel_thickness": float(every.max() / thickness),
+    }
+    if len(dist) > 1:
+        figures |= {f"shape_rms_diff_mm_{n}": float(np.sqrt(np.mean(d**2)))
+                    for n, d in dist.items()}
+    return figures, dist
+
+
+def _shared_metrics(imp: dict, exp: dict) -> list[tuple[str, float, float]]:
+    """Scalar metrics reported by both runs (booleans and solver figures left out)."""
+    solver_keys = {"kinetic_to_internal_max", "quasi_static", "mass_added_fraction",
+                   "energy_balance_error_rel"}
+    rows = []
+    for k, v in imp.items():
+        w = exp.get(k)
+        if k in solver_keys or isinstance(v, bool) or isinstance(w, bool):
+            continue
+        if isinstance(v, int | float) and isinstance(w, int | float):
+            rows.append((k, float(v), float(w)))
+    return rows
+
+
+def _plots(out: Path, response, curves, exp: RunResult, dist: dict, shape: dict,
+           case: str) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from forming.output import plot_curves
+
+    (xi, fi), (xe, fe) = curves
+    paths = [plot_curves(out / "force_travel.png",
+                         [(xi, fi, "implicit", "o-"), (xe, fe, "explicit (interval means)", "s--")],
+                         "travel [mm]", f"{response.label} [N]", f"{case}: implicit vs explicit")]
+    h = exp.history
+    if "energy_internal_Nmm" in h:
+        series = [(h["t"], h[k], lbl, sty) for k, lbl, sty in (
+            ("work_external_Nmm", "external work", "k-"),
+            ("energy_internal_Nmm", "internal", "b-"),
+            ("energy_friction_Nmm", "friction", "g-"),
+            ("energy_kinetic_Nmm", "kinetic", "r-"),
+            ("energy_balance_Nmm", "balance (error)", "m:"))]
+        paths.append(plot_curves(out / "explicit_energies.png", series, "load parameter",
+                                 "energy [N mm]", f"{case}: explicit energies"))
+    # where the final shapes differ: nodes in plan view, coloured by distance
+    fig, ax = plt.subplots(figsize=(6.4, 5.2), dpi=120)
+    vmax = max(float(d.max()) for d in dist.values()) or 1.0
+    marks = "osD^v<>"
+    for i, (name, d) in enumerate(dist.items()):
+        # one marker per node column: the largest distance through the thickness
+        xy, col = np.unique(np.round(shape[f"{name}_X"][:, :2], 6), axis=0,
+                            return_inverse=True)
+        dmax = np.zeros(len(xy))
+        np.maximum.at(dmax, col.ravel(), d)
+        sc = ax.scatter(xy[:, 0], xy[:, 1], c=dmax, s=10, marker=marks[i % len(marks)],
+                        vmin=0.0, vmax=vmax, cmap="viridis", label=name)
+    fig.colorbar(sc, ax=ax, label="|u_explicit - u_implicit| [mm]")
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    ax.set_aspect("equal")
+    ax.set_title(f"{case}: final shape difference (max through the thickness)")
+    if len(dist) > 1:
+        ax.legend(loc="upper right")
+    fig.tight_layout()
+    fig.savefig(out / "shape_difference.png")
+    plt.close(fig)
+    paths.append(out / "shape_difference.png")
+    return paths
+
+
+def _fmt(v) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        if v == 0 or not math.isfinite(v):
+            return str(v)
+        return f"{v:.4g}"
+    return str(v)
+
+
+def _report(out: Path, case: str, result: dict, shared, pngs: list[Path],
+            assignments: list[str]) -> Path:
+    r, tg = result, result["targets"]
+    command = " ".join(["forming compare", case] + [f"--set {a}" for a in assignments])
+    lines = [
+        f"# {case}: implicit against explicit", "",
+        f"Command: `{command}`. Runs in `implicit/` and `explicit/`.", "",
+        "| quantity | value | target | met |", "|---|---|---|---|",
+        f"| force RMS difference / peak | {r['force_rms_diff_rel']:.2%} | "
+        f"{tg['force_rms']:.0%} | {_fmt(r['force_rms_diff_rel'] <= tg['force_rms'])} |",
+        f"| final shape RMS distance / thickness ({r['thickness_mm']:.4g} mm) | "
+        f"{r['shape_rms_diff_rel_thickness']:.2%} | {tg['shape_rms']:.0%} | "
+        f"{_fmt(r['shape_rms_diff_rel_thickness'] <= tg['shape_rms'])} |",
+        f"| explicit energy balance error / external work | "
+        f"{r['energy_balance_error_rel']:.2%} | {tg['energy_balance']:.0%} | "
+        f"{_fmt(r['energy_balance_error_rel'] <= tg['energy_balance'])} |",
+        f"| explicit quasi-static (KE/IE max {r['kinetic_to_internal_max']:.2%}) | "
+        f"{_fmt(r['explicit_quasi_static'])} | yes | {_fmt(r['explicit_quasi_static'])} |",
+        "", "| | implicit | explicit | difference |", "|---|---|---|---|",
+        f"| status | {r['status_implicit']} | {r['status_explicit']} | |",
+        f"| peak force [N] | {r['peak_force_implicit_N']:.5g} | {r['peak_force_explicit_N']:.5g}"
+        f" | {r['peak_force_diff_rel']:+.2%} (at the explicit abscissae) |",
+        f"| final force [N] | {r['final_force_implicit_N']:.5g} | "
+        f"{r['final_force_explicit_N']:.5g} | {r['final_force_diff_rel']:+.2%} of peak "
+        "(at the last interval's midpoint) |",
+        f"| final shape: max nodal distance [mm] | | | {r['shape_max_diff_mm']:.4g} "
+        f"({r['shape_max_diff_rel_thickness']:.2%} of thickness) |",
+        f"| wall time [s] | {r['wall_s_implicit']:.1f} | {r['wall_s_explicit']:.1f} | "
+        f"x{r['wall_s_explicit'] / r['wall_s_implicit']:.2f} |",
+        f"| steps / time increments | {r['steps_implicit']} | {r['time_steps_explicit']} | |",
+        f"| mass added (explicit) | | {r['mass_added_fraction']:.2%} | |",
+    ]
+    for k, v, w in shared:
+        rel = f"{(w - v) / abs(v):+.2%}" if v != 0 else ""
+        lines.append(f"| {k} | {_fmt(v)} | {_fmt(w)} | {rel} |")
+    lines += ["", "The explicit forces are means over each output interval, plotted at the "
+              "interval midpoints.", ""]
+    lines += [f"![{p.stem}]({p.name})" for p in pngs]
+    path = out / "report.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def compare(case: str, out: Path, assignments: list[str], targets: Targets = Targets(),
+            build=None, params_cls=None) -> dict:
+    """Run ``case`` with both solvers into ``out`` and write the cross-check report.
+
+    ``assignments`` (``--set key=value``) apply to both runs; ``explicit.*`` settings
+    only affect the explicit one. ``solver=...`` is not allowed here.
+
+    Returns:
+        The figures written to ``compare.json``.
+    """
+    from mpi4py import MPI
+
+    from forming.case import (
+        _split_solver_settings,
+        apply_solver_settings,
+        load_case,
+        parse_params,
+        run_case,
+    )
+
+    choice, _explicit, rest = _split_solver_settings(assignments)
+    if choice:
+        raise InputError("--set solver", "forming compare runs both solvers; drop it")
+    if build is None:
+        module = load_case(case)
+        build, params_cls = module.build, module.Params
+    job = apply_solver_settings(build(parse_params(params_cls, rest)), [], _explicit)
+    response = job.response_or_default()
+    out = Path(out)
+    summaries = {}
+    for solver in ("implicit", "explicit"):
+        log.info("compare %s: %s run", case, solver)
+        summaries[solver] = run_case(case, out / solver, [*assignments, f"solver={solver}"],
+                                     build, params_cls)
+    comm = MPI.COMM_WORLD
+    result: dict = {}
+    if comm.rank == 0:
+        imp, exp = RunResult.load(out / "implicit"), RunResult.load(out / "explicit")
+        curves = _force_curves(response, imp, exp)
+        thickness = reference_thickness(imp.shape)
+        shape_fig, dist = shape_differences(imp.shape, exp.shape, thickness)
+        em = exp.summary["metrics"]
+        result = {
+            "case": case,
+            "status_implicit": imp.summary["status"],
+            "status_explicit": exp.summary["status"],
+            "response": {"column": response.column, "travel_mm": response.travel,
+                         "scale": response.scale},
+            **force_differences(*curves),
+            **shape_fig,
+            "wall_s_implicit": imp.summary["timing"]["wall_s"],
+            "wall_s_explicit": exp.summary["timing"]["wall_s"],
+            "steps_implicit": imp.summary["timing"]["steps"],
+            "newton_iterations_implicit": imp.summary["timing"]["newton_iterations"],
+            "time_steps_explicit": exp.summary["timing"].get("time_steps", 0),
+            "explicit_quasi_static": bool(em.get("quasi_static", False)),
+            "kinetic_to_internal_max": em.get("kinetic_to_internal_max", float("nan")),
+            "energy_balance_error_rel": em.get("energy_balance_error_rel", float("nan")),
+            "mass_added_fraction": em.get("mass_added_fraction", 0.0),
+            "targets": {"force_rms": targets.force_rms, "shape_rms": targets.shape_rms,
+                        "energy_balance": targets.energy_balance},
+        }
+        shared = _shared_metrics(imp.summary["metrics"], em)
+        result["metrics"] = {k: {"implicit": v, "explicit": w} for k, v, w in shared}
+        result["meets_targets"] = bool(
+            result["status_implicit"] == result["status_explicit"] == "completed"
+            and result["explicit_quasi_static"]
+            and result["force_rms_diff_rel"] <= targets.force_rms
+            and result["shape_rms_diff_rel_thickness"] <= targets.shape_rms
+            and result["energy_balance_error_rel"] <= targets.energy_balance)
+        pngs = _plots(out, response, curves, exp, dist, imp.shape, case)
+        _report(out, case, result, shared, pngs, assignments)
+        from forming.output import _clean
+
+        (out / "compare.json").write_text(json.dumps(_clean(result), indent=2) + "\n")
+    return comm.bcast(result, root=0)

@@ -1,0 +1,68 @@
+"""The implicit-versus-explicit comparison (``forming compare``): its measures and errors.
+
+The end-to-end comparison runs in tests/test_explicit.py (square-punch crushing).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from forming.compare import compare, force_differences, reference_thickness, shape_differences
+from forming.errors import InputError
+
+
+def test_force_differences_of_known_curves():
+    """A constant offset c of the explicit curve gives an RMS and a final difference of
+    c / peak; the peak difference is taken at the explicit abscissae (an interval mean
+    cannot reach a peak at the end of the stroke)."""
+    xi = np.linspace(0.0, 10.0, 21)
+    fi = 100.0 * xi  # peak 1000 at the end
+    xe = np.linspace(0.25, 9.75, 20)  # interval midpoints
+    fe = 100.0 * xe + 20.0
+    d = force_differences((xi, fi), (xe, fe))
+    assert d["force_rms_diff_rel"] == pytest.approx(0.02)
+    assert d["force_max_diff_rel"] == pytest.approx(0.02)
+    assert d["final_force_diff_rel"] == pytest.approx(0.02)
+    assert d["peak_force_implicit_N"] == pytest.approx(1000.0)
+    assert d["peak_force_diff_rel"] == pytest.approx(20.0 / 975.0)
+
+
+def test_force_differences_reject_a_zero_reference():
+    x = np.linspace(0, 1, 5)
+    with pytest.raises(InputError, match="response"):
+        force_differences((x, 0 * x), (x, x))
+
+
+def test_shape_differences_measure_nodal_distance_over_thickness():
+    """Two bodies: the RMS runs over all nodes; the thickness is the core's z extent."""
+    X = np.array([[0, 0, 0], [1, 0, 0], [0, 0, 20.0], [1, 0, 20.0]])
+    u = np.zeros((4, 3))
+    imp = {"core_X": X, "core_u": u, "skin_X": X[:2], "skin_u": u[:2]}
+    moved = u.copy()
+    moved[:, 2] = 0.4  # every core node 0.4 mm off
+    exp = {"core_X": X, "core_u": moved, "skin_X": X[:2], "skin_u": u[:2]}
+    h = reference_thickness(imp)
+    assert h == pytest.approx(20.0)
+    fig, dist = shape_differences(imp, exp, h)
+    assert fig["shape_max_diff_mm"] == pytest.approx(0.4)
+    assert fig["shape_rms_diff_mm"] == pytest.approx(0.4 * np.sqrt(4 / 6))
+    assert fig["shape_rms_diff_rel_thickness"] == pytest.approx(0.4 * np.sqrt(4 / 6) / 20)
+    assert fig["shape_rms_diff_mm_core"] == pytest.approx(0.4)
+    assert set(dist) == {"core", "skin"}
+
+
+def test_shape_differences_need_the_same_mesh():
+    X = np.zeros((2, 3))
+    with pytest.raises(InputError, match="mesh"):
+        shape_differences({"core_X": X, "core_u": X}, {"core_X": X + 1, "core_u": X}, 1.0)
+
+
+def test_compare_refuses_a_solver_choice(tmp_path):
+    with pytest.raises(InputError, match="solver"):
+        compare("core_compression", tmp_path, ["solver=explicit"])
+
+
+def test_compare_names_an_unknown_case(tmp_path):
+    with pytest.raises(InputError, match="case"):
+        compare("no_such_case", tmp_path, [])
