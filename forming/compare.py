@@ -283,13 +283,13 @@ def compare(case: str, out: Path, assignments: list[str], targets: Targets = Tar
         run_case,
     )
 
-    choice, _explicit, rest = _split_solver_settings(assignments)
+    choice, explicit_sets, rest = _split_solver_settings(assignments)
     if choice:
         raise InputError("--set solver", "forming compare runs both solvers; drop it")
     if build is None:
         module = load_case(case)
         build, params_cls = module.build, module.Params
-    job = apply_solver_settings(build(parse_params(params_cls, rest)), [], _explicit)
+    job = apply_solver_settings(build(parse_params(params_cls, rest)), [], explicit_sets)
     response = job.response_or_default()
     out = Path(out)
     summaries = {}

@@ -1,0 +1,202 @@
+"""What accuracy costs in time: implicit load steps against explicit loading time (issue #5).
+
+`hemisphere` with the blank holder (core only, 12 x 12 x 3 quarter mesh) run with
+
+- the implicit solver at several largest load steps (``max_step``), and
+- the explicit solver at several loading times and mass-scaling targets,
+
+each point giving its error against a converged reference (the implicit solver at a
+load step four times finer than the finest point) and its wall time. The error is the
+RMS difference of the punch force-stroke curve relative to the reference's peak (the
+explicit forces are interval means, compared at the interval midpoints, as in
+``forming compare``); the crushed volume's relative error is listed next to it. Writes
+the chart ``docs/figures/accuracy_vs_time.png`` and the ``accuracy_vs_time`` section of
+docs/performance.md, which states which solver reaches 1% and 5% error sooner.
+
+Run alone (wall times): ``python benchmarks/accuracy_vs_time.py`` (about 15 minutes on one
+core; ``--quick`` for a 6 x 6 x 2 mesh and fewer points).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from _report import REPO, machine, run_case_process, update_section
+
+sys.path.insert(0, str(REPO))
+from forming.compare import force_differences  # noqa: E402
+
+STROKE, COPIES = 50.0, 4.0
+
+
+def _curve(out: Path, explicit: bool) -> tuple[np.ndarray, np.ndarray]:
+    h = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    t = np.atleast_1d(h["t"])
+    if explicit:
+        t = np.concatenate([t[:1], 0.5 * (t[1:] + t[:-1])])
+    return t * STROKE, COPIES * np.atleast_1d(h["force_punch_z_N"])
+
+
+def _cheapest(rows: list[dict], solver: str, tol: float) -> dict | None:
+    ok = [r for r in rows if r["solver"] == solver and r["status"] == "completed"
+          and r["error"] <= tol]
+    return min(ok, key=lambda r: r["wall_s"]) if ok else None
+
+
+def _verdict(rows: list[dict], tol: float) -> str:
+    imp, exp = _cheapest(rows, "implicit", tol), _cheapest(rows, "explicit", tol)
+    def say(r):
+        return f"{r['label']}, {r['wall_s']:.0f} s" if r else "no setting reached it"
+    if imp and exp:
+        win = "implicit" if imp["wall_s"] < exp["wall_s"] else "explicit"
+        ratio = max(imp["wall_s"], exp["wall_s"]) / min(imp["wall_s"], exp["wall_s"])
+        verdict = f"**{win}** is cheaper, by {ratio:.1f}x"
+    elif imp or exp:
+        verdict = f"**{'implicit' if imp else 'explicit'}** is the only one to reach it"
+    else:
+        verdict = "neither reaches it"
+    return (f"- At {tol:.0%} error: {verdict} (cheapest implicit: {say(imp)}; "
+            f"cheapest explicit: {say(exp)}).")
+
+
+def _chart(rows: list[dict], path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.0, 4.8), dpi=120)
+    for solver, style in (("implicit", "o-"), ("explicit", "s--"), ("explicit, mass scaled", "^:")):
+        pts = sorted((r for r in rows if r["series"] == solver and r["status"] == "completed"),
+                     key=lambda r: r["wall_s"])
+        if pts:
+            ax.loglog([r["wall_s"] for r in pts], [max(r["error"], 1e-5) for r in pts], style,
+                      label=solver)
+            for i, r in enumerate(pts):  # alternate above and below: close points
+                ax.annotate(r["short"], (r["wall_s"], max(r["error"], 1e-5)), fontsize=7,
+                            textcoords="offset points", xytext=(4, 4 if i % 2 else -10))
+    for tol in (0.01, 0.05):
+        ax.axhline(tol, color="grey", lw=0.8, ls=":")
+    ax.set_xlabel("wall time [s] (1 core)")
+    ax.set_ylabel("punch force error (RMS / peak) vs reference")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="coarse mesh, fewer points")
+    parser.add_argument("--json", type=Path, default=None, help="also write the raw rows")
+    parser.add_argument("--replot", type=Path, default=None,
+                        help="rewrite the chart and the section from a --json file")
+    args = parser.parse_args()
+    if args.replot:
+        data = json.loads(args.replot.read_text())
+        for r in data["rows"]:
+            if r["solver"] == "implicit":
+                r["short"] = f"max {r['label'].split()[-1]} ({r['work']} steps)"
+        write(data["rows"], data["reference"], data["cells"], data["quick"], data["machine"])
+        return
+    cells = "6,6,2" if args.quick else "12,12,3"
+    base = (f"cells={cells}", "blank_holder=true")
+    implicit_steps = (0.05, 0.02, 0.01) if args.quick else (0.05, 0.025, 0.01, 0.005)
+    reference_step = implicit_steps[-1] / 4
+    loading = (0.005, 0.01, 0.02) if args.quick else (0.005, 0.01, 0.02, 0.05)
+    scaled = ((0.05, 2.0),) if args.quick else ((0.05, 2.0), (0.05, 4.0))  # (time, dt factor)
+    rows: list[dict] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        ref_out = tmp / "reference"
+        ref = run_case_process("hemisphere", ref_out, sets=(*base, f"max_step={reference_step}",
+                                                             f"min_step={reference_step / 100}"))
+        ref_curve = _curve(ref_out, False)
+        ref_crushed = ref["metrics"]["crushed_volume_mm3"]
+        natural_dt = None
+
+        def point(series: str, label: str, short: str, sets: tuple[str, ...], explicit: bool):
+            out = tmp / f"run{len(rows)}"
+            s = run_case_process("hemisphere", out, sets=(*base, *sets), allow_failure=True)
+            row = {"series": series, "solver": "explicit" if explicit else "implicit",
+                   "label": label, "short": short, "status": s["status"],
+                   "wall_s": s["timing"]["wall_s"], "error": float("nan"),
+                   "crushed_error": float("nan"), "work": (s["timing"].get("time_steps")
+                                                           if explicit else s["timing"]["steps"]),
+                   "ke_ie": s["metrics"].get("kinetic_to_internal_max", float("nan")),
+                   "mass_added": s["metrics"].get("mass_added_fraction", 0.0),
+                   "dt": s["timing"].get("stable_time_step_s", float("nan"))}
+            if s["status"] == "completed":
+                row["error"] = force_differences(ref_curve, _curve(out, explicit))[
+                    "force_rms_diff_rel"]
+                row["crushed_error"] = s["metrics"]["crushed_volume_mm3"] / ref_crushed - 1
+            if not explicit:
+                row["short"] = f"{short} ({row['work']} steps)"
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+            return s
+
+        for step in implicit_steps:
+            point("implicit", f"max_step {step}", f"max {step:g}",
+                  (f"max_step={step}",), False)
+        for tload in loading:
+            s = point("explicit", f"loading time {tload} s", f"{tload * 1e3:g} ms",
+                      ("solver=explicit", f"explicit.loading_time={tload}"), True)
+            natural_dt = natural_dt or s["timing"]["stable_time_step_s"]
+        for tload, factor in scaled:
+            target = factor * natural_dt
+            point("explicit, mass scaled", f"loading time {tload} s, target dt {target:.3g} s "
+                  f"({factor:g}x)", f"{tload * 1e3:g} ms, dt x{factor:g}",
+                  ("solver=explicit", f"explicit.loading_time={tload}",
+                   f"explicit.target_time_step={target}"), True)
+        ref_row = {"wall_s": ref["timing"]["wall_s"], "steps": ref["timing"]["steps"],
+                   "force_max_N": float(np.max(ref_curve[1])), "crushed": ref_crushed,
+                   "max_step": reference_step}
+    if args.json:
+        args.json.write_text(json.dumps({"reference": ref_row, "rows": rows, "cells": cells,
+                                         "quick": args.quick, "machine": machine()},
+                                        indent=2))
+    write(rows, ref_row, cells, args.quick, machine())
+
+
+def write(rows: list[dict], ref_row: dict, cells: str, quick: bool, where: str) -> None:
+    """The chart and the ``accuracy_vs_time`` section of docs/performance.md."""
+    fig = REPO / "docs" / "figures" / "accuracy_vs_time.png"
+    _chart(rows, fig, f"hemisphere with blank holder, {cells} mesh: error vs wall time")
+    lines = [
+        f"## Accuracy against time: implicit and explicit (`hemisphere`, blank holder, "
+        f"{cells} quarter mesh)",
+        "",
+        f"`python benchmarks/accuracy_vs_time.py{' --quick' if quick else ''}`, one "
+        f"process per point, run alone on {where}. Reference: the implicit solver with "
+        f"max_step {ref_row['max_step']:g} ({ref_row['steps']} steps, {ref_row['wall_s']:.0f} s; "
+        f"punch force max {ref_row['force_max_N']:.1f} N, crushed volume "
+        f"{ref_row['crushed']:.0f} mm^3). Error: RMS difference of the punch force-stroke "
+        "curve over the reference's peak force.",
+        "",
+        "| solver | setting | status | steps / increments | stable dt [s] | mass added | "
+        "KE/IE max | force error | crushed volume error | wall [s] |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        dt = f"{r['dt']:.3g}" if r["solver"] == "explicit" else ""
+        kei = f"{r['ke_ie']:.1%}" if r["solver"] == "explicit" else ""
+        added = f"{r['mass_added']:.1%}" if r["solver"] == "explicit" else ""
+        lines.append(f"| {r['solver']} | {r['label']} | {r['status']} | {r['work']} | {dt} "
+                     f"| {added} | {kei} | {r['error']:.2%} | {r['crushed_error']:+.2%} "
+                     f"| {r['wall_s']:.1f} |")
+    lines += ["", _verdict(rows, 0.01), _verdict(rows, 0.05), "",
+              "![error against wall time](figures/accuracy_vs_time.png)"]
+    update_section("accuracy_vs_time", "\n".join(lines), REPO / "docs" / "performance.md")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
