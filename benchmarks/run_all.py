@@ -7,7 +7,8 @@ import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-BENCHMARKS = ["core_compression.py", "kernel_speed.py", "hemisphere_cost.py"]
+BENCHMARKS = ["core_compression.py", "kernel_speed.py", "hemisphere_cost.py",
+              "accuracy_vs_time.py"]
 
 if __name__ == "__main__":
     for name in BENCHMARKS:

@@ -29,7 +29,7 @@ def _compare(args: argparse.Namespace, extra: list[str]) -> int:
     out = args.out or Path("results") / f"{args.case}_compare"
     try:
         _apply_petsc_args(extra)
-        r = compare(args.case, out, args.assignments)
+        r = compare(args.case, out, args.assignments, reuse=args.reuse)
     except InputError as exc:
         if MPI.COMM_WORLD.rank == 0:
             log.error("%s", exc)
@@ -57,6 +57,8 @@ def main(argv: list[str] | None = None) -> None:
     cmp_ = sub.add_parser("compare", help="run a case with both solvers and compare them")
     cmp_.add_argument("case", help="case name, e.g. core_crushing")
     add_run_arguments(cmp_)
+    cmp_.add_argument("--reuse", action="store_true",
+                      help="compare the runs already in --out again (nothing is run)")
     args, extra = parser.parse_known_args(argv if argv is not None else sys.argv[1:])
     if args.command == "run":
         raise SystemExit(execute(args.case, args, extra))

@@ -13,8 +13,8 @@
 - the wall time of each.
 
 It writes ``report.md`` with PNGs and ``compare.json`` into ``<out>``. The explicit tool
-forces are means over each output interval (docs/theory.md, section 12), so they are
-compared at the interval midpoints.
+forces are means over each output interval (docs/theory.md, section 12), so the implicit
+force is averaged over the same intervals before the two are compared.
 """
 
 from __future__ import annotations
@@ -66,27 +66,60 @@ class RunResult:
         return cls(summary, history, shape)
 
 
-def _force_curves(response, imp: RunResult, exp: RunResult):
-    """Implicit and explicit (travel, force); explicit at its output intervals' midpoints."""
+def interval_means(s_imp: np.ndarray, f_imp: np.ndarray, s_edges: np.ndarray,
+                   options, samples: int = 64) -> tuple[np.ndarray, np.ndarray]:
+    """Time means of the load parameter and of the implicit force over explicit intervals.
+
+    The explicit solver writes the mean force over each output interval (in time). The
+    implicit force, a function of the load parameter s, is averaged the same way: over
+    the time of each interval, with s following the explicit load programme ``options``
+    (:class:`~forming.solver.explicit.ExplicitOptions`), so that both curves carry the
+    same filter. The first entry (s = 0) is kept as it is.
+
+    Returns:
+        The mean load parameter and the mean implicit force of every interval.
+    """
+    s_mean, f_mean = [float(s_edges[0])], [float(np.interp(s_edges[0], s_imp, f_imp))]
+    for a, b in zip(s_edges[:-1], s_edges[1:], strict=True):
+        tau = np.linspace(options.time_of(a), options.time_of(b), samples)
+        s = np.array([options.load(x) for x in tau])
+        span = tau[-1] - tau[0]
+        if span <= 0:
+            s_mean.append(float(b))
+            f_mean.append(float(np.interp(b, s_imp, f_imp)))
+            continue
+        s_mean.append(float(np.trapezoid(s, tau) / span))
+        f_mean.append(float(np.trapezoid(np.interp(s, s_imp, f_imp), tau) / span))
+    return np.array(s_mean), np.array(f_mean)
+
+
+def _force_curves(response, imp: RunResult, exp: RunResult, options):
+    """Implicit and explicit (travel, force), and the implicit force filtered alike.
+
+    The filtered implicit force is its time mean over each explicit output interval.
+    """
     for run, name in ((imp, "implicit"), (exp, "explicit")):
         if response.column not in run.history:
             raise InputError("response.column",
                              f"{response.column!r} is not in the {name} run's history.csv")
     xi, fi = response.curve(imp.history["t"], imp.history[response.column])
-    t = exp.history["t"]
-    mid = np.concatenate([t[:1], 0.5 * (t[1:] + t[:-1])])
-    xe, fe = response.curve(mid, exp.history[response.column])
-    return (xi, fi), (xe, fe)
+    s_mean, f_filtered = interval_means(imp.history["t"], imp.history[response.column],
+                                        exp.history["t"], options)
+    xe, fe = response.curve(s_mean, exp.history[response.column])
+    _x, fi_on_exp = response.curve(s_mean, f_filtered)
+    return (xi, fi), (xe, fe), fi_on_exp
 
 
-def force_differences(imp_curve, exp_curve) -> dict[str, float]:
+def force_differences(imp_curve, exp_curve, imp_on_exp: np.ndarray | None = None
+                      ) -> dict[str, float]:
     """RMS, peak and final force differences relative to the implicit peak |force|.
 
-    The implicit curve is interpolated linearly at the explicit abscissae inside its
-    range, and the differences are taken there: an explicit force is a mean over an
-    output interval, so a peak at the end of the stroke is compared with the implicit
-    force at the last interval's midpoint, not at the end. The implicit peak reported
-    (``peak_force_implicit_N``) is that of its own steps.
+    The differences are taken at the explicit points: against ``imp_on_exp`` (the
+    implicit force filtered like the explicit one, :func:`interval_means`) when given,
+    else against the implicit curve interpolated linearly there. An explicit force is a
+    mean over an output interval, so a peak at the end of the stroke is compared with the
+    implicit force filtered the same way, not with its end value. The implicit peak
+    reported (``peak_force_implicit_N``) is that of its own steps.
     """
     (xi, fi), (xe, fe) = imp_curve, exp_curve
     peak = float(np.max(np.abs(fi)))
@@ -94,7 +127,7 @@ def force_differences(imp_curve, exp_curve) -> dict[str, float]:
         raise InputError("response", "the implicit force is zero throughout")
     inside = (xe >= xi.min() - 1e-12) & (xe <= xi.max() + 1e-12)
     xe, fe = xe[inside], fe[inside]
-    fi_at = np.interp(xe, xi, fi)
+    fi_at = np.interp(xe, xi, fi) if imp_on_exp is None else np.asarray(imp_on_exp)[inside]
     diff = fe - fi_at
     i_peak, e_peak = fi[np.argmax(np.abs(fi))], fe[np.argmax(np.abs(fe))]
     i_peak_at = fi_at[np.argmax(np.abs(fi_at))]
@@ -170,9 +203,11 @@ def _plots(out: Path, response, curves, exp: RunResult, dist: dict, shape: dict,
 
     from forming.output import plot_curves
 
-    (xi, fi), (xe, fe) = curves
+    (xi, fi), (xe, fe), fi_on_exp = curves
     paths = [plot_curves(out / "force_travel.png",
-                         [(xi, fi, "implicit", "o-"), (xe, fe, "explicit (interval means)", "s--")],
+                         [(xi, fi, "implicit", "o-"),
+                          (xe, fi_on_exp, "implicit, interval means", "+"),
+                          (xe, fe, "explicit (interval means)", "s--")],
                          "travel [mm]", f"{response.label} [N]", f"{case}: implicit vs explicit")]
     h = exp.history
     if "energy_internal_Nmm" in h:
@@ -241,10 +276,10 @@ def _report(out: Path, case: str, result: dict, shared, pngs: list[Path],
         "", "| | implicit | explicit | difference |", "|---|---|---|---|",
         f"| status | {r['status_implicit']} | {r['status_explicit']} | |",
         f"| peak force [N] | {r['peak_force_implicit_N']:.5g} | {r['peak_force_explicit_N']:.5g}"
-        f" | {r['peak_force_diff_rel']:+.2%} (at the explicit abscissae) |",
+        f" | {r['peak_force_diff_rel']:+.2%} (interval means) |",
         f"| final force [N] | {r['final_force_implicit_N']:.5g} | "
         f"{r['final_force_explicit_N']:.5g} | {r['final_force_diff_rel']:+.2%} of peak "
-        "(at the last interval's midpoint) |",
+        "(last interval's means) |",
         f"| final shape: max nodal distance [mm] | | | {r['shape_max_diff_mm']:.4g} "
         f"({r['shape_max_diff_rel_thickness']:.2%} of thickness) |",
         f"| wall time [s] | {r['wall_s_implicit']:.1f} | {r['wall_s_explicit']:.1f} | "
@@ -255,8 +290,10 @@ def _report(out: Path, case: str, result: dict, shared, pngs: list[Path],
     for k, v, w in shared:
         rel = f"{(w - v) / abs(v):+.2%}" if v != 0 else ""
         lines.append(f"| {k} | {_fmt(v)} | {_fmt(w)} | {rel} |")
-    lines += ["", "The explicit forces are means over each output interval, plotted at the "
-              "interval midpoints.", ""]
+    lines += ["", "The explicit forces are means over each output interval (in time); the "
+              "implicit curve is averaged over the same intervals (along the explicit load "
+              "programme) before the differences are taken, and both are plotted at the "
+              "intervals' mean travel.", ""]
     lines += [f"![{p.stem}]({p.name})" for p in pngs]
     path = out / "report.md"
     path.write_text("\n".join(lines) + "\n")
@@ -264,11 +301,13 @@ def _report(out: Path, case: str, result: dict, shared, pngs: list[Path],
 
 
 def compare(case: str, out: Path, assignments: list[str], targets: Targets = Targets(),
-            build=None, params_cls=None) -> dict:
+            build=None, params_cls=None, reuse: bool = False) -> dict:
     """Run ``case`` with both solvers into ``out`` and write the cross-check report.
 
     ``assignments`` (``--set key=value``) apply to both runs; ``explicit.*`` settings
-    only affect the explicit one. ``solver=...`` is not allowed here.
+    only affect the explicit one. ``solver=...`` is not allowed here. With ``reuse`` the
+    runs already in ``out/implicit`` and ``out/explicit`` are compared again (same
+    settings), without running anything.
 
     Returns:
         The figures written to ``compare.json``.
@@ -292,16 +331,18 @@ def compare(case: str, out: Path, assignments: list[str], targets: Targets = Tar
     job = apply_solver_settings(build(parse_params(params_cls, rest)), [], explicit_sets)
     response = job.response_or_default()
     out = Path(out)
-    summaries = {}
     for solver in ("implicit", "explicit"):
+        if reuse:
+            if not (out / solver / "summary.json").is_file():
+                raise InputError("--reuse", f"no finished run in {out / solver}")
+            continue
         log.info("compare %s: %s run", case, solver)
-        summaries[solver] = run_case(case, out / solver, [*assignments, f"solver={solver}"],
-                                     build, params_cls)
+        run_case(case, out / solver, [*assignments, f"solver={solver}"], build, params_cls)
     comm = MPI.COMM_WORLD
     result: dict = {}
     if comm.rank == 0:
         imp, exp = RunResult.load(out / "implicit"), RunResult.load(out / "explicit")
-        curves = _force_curves(response, imp, exp)
+        curves = _force_curves(response, imp, exp, job.explicit)
         thickness = reference_thickness(imp.shape)
         shape_fig, dist = shape_differences(imp.shape, exp.shape, thickness)
         em = exp.summary["metrics"]
@@ -312,6 +353,7 @@ def compare(case: str, out: Path, assignments: list[str], targets: Targets = Tar
             "response": {"column": response.column, "travel_mm": response.travel,
                          "scale": response.scale},
             **force_differences(*curves),
+            "force_filter": "time means over the explicit output intervals",
             **shape_fig,
             "wall_s_implicit": imp.summary["timing"]["wall_s"],
             "wall_s_explicit": exp.summary["timing"]["wall_s"],

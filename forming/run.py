@@ -12,6 +12,7 @@ from typing import Literal, Protocol
 import numpy as np
 
 from forming import compat
+from forming.errors import InputError
 from forming.log import Progress
 from forming.model import Model
 from forming.output import Recorder, write_final_shape
@@ -95,7 +96,8 @@ class Job:
                 if len(self.scene.bodies) > 1:
                     key = f"{d.body}_{key}"
                 return Response(f"reaction_{key}_N", label=f"reaction {key}")
-        raise ValueError("the job has no tool and no reaction to compare")
+        raise InputError("response", "the job has no tool and no recorded reaction: give "
+                         "Job.response to compare its force")
 
 
 class Solver(Protocol):

@@ -66,3 +66,22 @@ def test_compare_refuses_a_solver_choice(tmp_path):
 def test_compare_names_an_unknown_case(tmp_path):
     with pytest.raises(InputError, match="case"):
         compare("no_such_case", tmp_path, [])
+
+
+def test_interval_means_filter_the_implicit_force_like_the_explicit_one():
+    """With a linear load programme the time mean over an interval is the plain mean in
+    the load parameter: for f = s^2 over [a, b] it is (a^2 + ab + b^2) / 3, and the mean
+    load parameter is the midpoint. With the smooth step the tool slows down at the end,
+    so the last interval's time mean lies nearer its end than its midpoint does."""
+    from forming.compare import interval_means
+    from forming.solver.explicit import ExplicitOptions
+
+    s_imp = np.linspace(0.0, 1.0, 2001)
+    edges = np.array([0.0, 0.5, 1.0])
+    s_mean, f_mean = interval_means(s_imp, s_imp**2, edges,
+                                    ExplicitOptions(loading_time=1.0, amplitude="linear"),
+                                    samples=2001)
+    assert s_mean == pytest.approx([0.0, 0.25, 0.75], abs=1e-9)
+    assert f_mean == pytest.approx([0.0, 0.25 / 3, (0.25 + 0.5 + 1.0) / 3], rel=1e-5)
+    s_smooth, _f = interval_means(s_imp, s_imp, edges, ExplicitOptions(loading_time=1.0))
+    assert s_smooth[-1] > 0.75
