@@ -9,7 +9,8 @@ each point giving its error against a converged reference (the implicit solver a
 load step four times finer than the finest point) and its wall time. The error is the
 RMS difference of the punch force-stroke curve relative to the reference's peak (the
 explicit forces are interval means, compared with the reference averaged over the same
-intervals, as in ``forming compare``); the crushed volume's relative error is listed next to it. Writes
+intervals, as in ``forming compare``); the crushed volume's relative error is listed next
+to it. Writes
 the chart ``docs/figures/accuracy_vs_time.png`` and the ``accuracy_vs_time`` section of
 docs/performance.md, which states which solver reaches 1% and 5% error sooner.
 
