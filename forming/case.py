@@ -141,24 +141,38 @@ def apply_solver_settings(job, choice: list[str], explicit: list[str]):
     return job
 
 
-def run_case(name: str, out: Path, assignments: list[str], build=None, params_cls=None) -> dict:
-    """Run case ``name`` with ``--set`` assignments; write the output contract into ``out``.
+def prepare_case(name: str, assignments: list[str], build=None, params_cls=None):
+    """The job of case ``name`` with ``--set`` assignments, and its parameters as recorded.
 
     Besides the case's parameters every case accepts ``solver=implicit|explicit`` and
     ``explicit.<setting>=value`` (:class:`~forming.solver.explicit.ExplicitOptions`).
     """
-    from forming.run import simulate
-
     if build is None:
         module = load_case(name)
         build, params_cls = module.build, module.Params
     choice, explicit, rest = _split_solver_settings(assignments)
     params = parse_params(params_cls, rest)
     job = apply_solver_settings(build(params), choice, explicit)
-    recorded = dataclasses.asdict(params) | {"solver": job.solver}
+    return job, dataclasses.asdict(params)
+
+
+def recorded_parameters(job, params: dict) -> dict:
+    """The case parameters with the solver settings the job runs with."""
+    recorded = params | {"solver": job.solver}
     if job.solver == "explicit":
         recorded["explicit"] = dataclasses.asdict(job.explicit)
-    return simulate(job, Path(out), name, recorded)
+    return recorded
+
+
+def run_case(name: str, out: Path, assignments: list[str], build=None, params_cls=None) -> dict:
+    """Run case ``name`` with ``--set`` assignments; write the output contract into ``out``.
+
+    See :func:`prepare_case` for the settings every case accepts.
+    """
+    from forming.run import simulate
+
+    job, params = prepare_case(name, assignments, build, params_cls)
+    return simulate(job, Path(out), name, recorded_parameters(job, params))
 
 
 def _apply_petsc_args(extra: list[str]) -> None:

@@ -22,7 +22,7 @@ from __future__ import annotations
 import json
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -314,21 +314,13 @@ def compare(case: str, out: Path, assignments: list[str], targets: Targets = Tar
     """
     from mpi4py import MPI
 
-    from forming.case import (
-        _split_solver_settings,
-        apply_solver_settings,
-        load_case,
-        parse_params,
-        run_case,
-    )
+    from forming.case import _split_solver_settings, prepare_case, recorded_parameters
+    from forming.run import simulate
 
-    choice, explicit_sets, rest = _split_solver_settings(assignments)
-    if choice:
+    if _split_solver_settings(assignments)[0]:
         raise InputError("--set solver", "forming compare runs both solvers; drop it")
-    if build is None:
-        module = load_case(case)
-        build, params_cls = module.build, module.Params
-    job = apply_solver_settings(build(parse_params(params_cls, rest)), [], explicit_sets)
+    # one job (one mesh) for both runs: the solver is the only difference
+    job, params = prepare_case(case, assignments, build, params_cls)
     response = job.response_or_default()
     out = Path(out)
     for solver in ("implicit", "explicit"):
@@ -337,7 +329,8 @@ def compare(case: str, out: Path, assignments: list[str], targets: Targets = Tar
                 raise InputError("--reuse", f"no finished run in {out / solver}")
             continue
         log.info("compare %s: %s run", case, solver)
-        run_case(case, out / solver, [*assignments, f"solver={solver}"], build, params_cls)
+        run = replace(job, solver=solver)
+        simulate(run, out / solver, case, recorded_parameters(run, params))
     comm = MPI.COMM_WORLD
     result: dict = {}
     if comm.rank == 0:
