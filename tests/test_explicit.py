@@ -67,9 +67,9 @@ def test_compare_frictional_crushing_full_stroke(tmp_path):
     within 3% RMS of the peak, final shapes within 2% of the core thickness RMS (issue #5,
     item 4). A balance error above 1% would mean a force whose work is not booked or an
     unstable time step (the bound must use the elastic unloading stiffness of crushed
-    cells: with the plastic tangent the run went unstable at 3 mm and inverted an
-    element at 7.2 mm); a force difference beyond 3% a difference in the physics the two
-    solvers assemble.
+    cells: with the plastic tangent this run inverted an element at 7.2 mm, and the
+    default 8 x 8 x 6 mesh went unstable at 3 mm); a force difference beyond 3% a
+    difference in the physics the two solvers assemble.
     """
     from forming.compare import compare
 

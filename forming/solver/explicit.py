@@ -221,6 +221,9 @@ class ExplicitSolver:
             for tr, const, ds in model.tractions]
         # every external term once; the full residual is their sum with the internal forces
         self._terms = [*self._tools, *self._sides, *self._loads]
+        # recorded reactions: the residual at a face's prescribed dofs, f_all . w
+        self._reactions = [(key, by_name[name], w.x.array[: by_name[name].n_owned])
+                           for key, (name, w) in model.dirichlet.reaction_weights.items()]
         self._stiffness = self._stiffness_forms(tests)
         self.mass_added_fraction = self._scale_masses()
         self.tau = 0.0
@@ -345,7 +348,6 @@ class ExplicitSolver:
     def _increment(self, dt: float) -> None:
         """Advance by ``dt``: velocity, displacement, load, forces, acceleration, history."""
         model = self.model
-        by_name = {st.name: st for st in self.states}
         old = []
         for st in self.states:
             n = st.n_owned
@@ -394,10 +396,8 @@ class ExplicitSolver:
                 (term.r_old + term.r_new).reshape(-1, 3).sum(axis=0), op=MPI.SUM)
             tools += -float(force @ (term.contact.offset.value - off0))
             self._impulse[term.contact.tool.name] += force * dt
-        for key, (name, w) in self.model.dirichlet.reaction_weights.items():
-            st = by_name[name]
-            n = st.n_owned
-            self._reaction_impulse[key] += dt * float(st.f_all.x.array[:n] @ w.x.array[:n])
+        for key, st, w in self._reactions:
+            self._reaction_impulse[key] += dt * float(st.f_all.x.array[: st.n_owned] @ w)
         w_int, w_ext, on_bodies = (self.comm.allreduce(v, op=MPI.SUM)
                                    for v in (w_int, w_ext, on_bodies))
         # what the tools put in, less what reached the nodes, went into friction (and
@@ -426,7 +426,7 @@ class ExplicitSolver:
         del t_old, dt_old
         self._s_end = t_new
         self._impulse = {t.contact.tool.name: np.zeros(3) for t in self._tools}
-        self._reaction_impulse = dict.fromkeys(self.model.dirichlet.reaction_weights, 0.0)
+        self._reaction_impulse = {key: 0.0 for key, _st, _w in self._reactions}
         self._tau_start = self.tau
         # the lifecycle set the load of the interval's end; the increments walk to it
         self.model.set_load(self.options.load(self.tau))
