@@ -31,7 +31,7 @@ from _report import REPO, machine, run_case_process, update_section
 
 sys.path.insert(0, str(REPO))
 from forming.compare import force_differences, interval_means  # noqa: E402
-from forming.solver.explicit import ExplicitOptions  # noqa: E402
+from forming.solver.options import ExplicitOptions  # noqa: E402
 
 STROKE, COPIES = 50.0, 4.0
 

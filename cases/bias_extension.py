@@ -24,12 +24,12 @@ from mpi4py import MPI
 
 from forming.case import main
 from forming.errors import InputError
+from forming.job import Job
 from forming.materials.fabric import NonCrimpFabric, ShearCurve
 from forming.mesh import box
 from forming.post import shear_angle_picture
-from forming.run import Job
 from forming.scene import Body, Displacement, Linear, Scene
-from forming.solver.implicit import NewtonOptions
+from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 

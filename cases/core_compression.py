@@ -17,12 +17,13 @@ from typing import Literal
 import numpy as np
 
 from forming.case import main
+from forming.job import Job, Response
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
 from forming.output import plot_curves
-from forming.run import Job, Response, relative_rms
+from forming.post import relative_rms
 from forming.scene import Body, Displacement, Linear, Scene
-from forming.solver.implicit import NewtonOptions
+from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 

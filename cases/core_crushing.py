@@ -28,6 +28,7 @@ from mpi4py import MPI
 from forming.case import main
 from forming.contact.shapes import Plane, RoundedBox
 from forming.errors import InputError
+from forming.job import Job, Response
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
 from forming.post import (
@@ -36,9 +37,8 @@ from forming.post import (
     plastic_strain_pictures,
     punch_force_plot,
 )
-from forming.run import Job, Response
 from forming.scene import Body, Contact, Displacement, Linear, Scene, Tool
-from forming.solver.implicit import NewtonOptions
+from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 TOOL_CORE_FRICTION = 0.36  # paper, section "Friction between materials"
@@ -80,6 +80,7 @@ def build(p: Params) -> Job:
                Tool("plate", Plane((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)))),
         contacts=(Contact("core", "top", "punch", friction=p.friction),
                   Contact("core", "bottom", "plate", friction=p.friction)),
+        symmetry_copies=4,
     )
     def probe(model) -> dict[str, float]:
         return {"crushed_volume_mm3": 4 * plastic_field(model.body).crushed_volume()}
@@ -132,7 +133,7 @@ def build(p: Params) -> Job:
     return Job(scene=scene, steps=StepControl(initial=min(0.05, p.max_step), max=p.max_step),
                newton=NewtonOptions(linear_solver=p.linear_solver, line_search="bt"),
                probe=probe, metrics=metrics, plots=plots,
-               response=Response("force_punch_z_N", p.stroke + p.gap, 4.0, "punch force"),
+               response=Response("force_punch_z_N", p.stroke + p.gap, label="punch force"),
                pictures=lambda model, out: plastic_strain_pictures(
                    model, out, "ymin", "Core crushing", tools_3d=("punch",)))
 

@@ -16,12 +16,12 @@ from typing import Literal
 import numpy as np
 
 from forming.case import main
+from forming.job import Job
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
 from forming.output import plot_curves
-from forming.run import Job
 from forming.scene import Body, Displacement, Linear, Scene
-from forming.solver.implicit import NewtonOptions
+from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 E_PAPER = 0.2  # MPa, paper section "In-plane tensile testing"

@@ -36,6 +36,7 @@ from mpi4py import MPI
 from forming.case import main
 from forming.contact.shapes import AnnularPlate, HemisphericalPunch
 from forming.errors import InputError
+from forming.job import Job, Response
 from forming.materials.fabric import NonCrimpFabric
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
@@ -46,10 +47,9 @@ from forming.post import (
     punch_force_plot,
     shear_angle_picture,
 )
-from forming.run import Job, Response
 from forming.sandwich import Outline, sandwich_blank
 from forming.scene import Body, Contact, Displacement, Interface, Linear, Scene, Tool
-from forming.solver.implicit import NewtonOptions
+from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 TOOL_CORE_FRICTION = 0.36  # paper, section "Friction between materials"
@@ -133,6 +133,7 @@ def build(p: Params) -> Job:
     scene = Scene(
         name="hemisphere", mesh=mesh, bodies=bodies, displacements=symmetry,
         tools=tuple(tools), contacts=tuple(contacts), interfaces=interfaces,
+        symmetry_copies=4,
     )
     section = "core_edge_ymin" if p.skins else "ymin"
 
@@ -152,11 +153,8 @@ def build(p: Params) -> Job:
         edge = np.isclose(xs[:, 0], half) | np.isclose(xs[:, 1], half)
         edge_lift = comm.allreduce(float(np.abs(uo[edge, 2]).max(initial=0.0)), op=MPI.MAX)
         # conformity: gap between the core's top and the punch over the punch's cap
-        punch = model.contacts[0]
-        punch._gap.interpolate(punch._gap_expr, cells0=punch._cells)
-        g = punch._gap.x.array[punch._owned]
-        r = np.linalg.norm(punch._gap.function_space.tabulate_dof_coordinates()
-                           [punch._owned][:, :2], axis=1)
+        g, xg = model.contacts[0].nodal_gap()
+        r = np.linalg.norm(xg[:, :2], axis=1)
         cap = r < 0.7 * R
         gap_max = comm.allreduce(float(g[cap].max(initial=0.0)), op=MPI.MAX)
         crushing = ufl.max_value(evp.evp, 0.0)  # compaction; negative evp is dilation
@@ -212,7 +210,7 @@ def build(p: Params) -> Job:
                                     line_search="basic" if p.skins else "bt"),
                probe=probe, metrics=metrics, plots=plots, field_every=5,
                pictures=pictures,
-               response=Response("force_punch_z_N", p.stroke, 4.0, "punch force"))
+               response=Response("force_punch_z_N", p.stroke, label="punch force"))
 
 
 if __name__ == "__main__":

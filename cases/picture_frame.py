@@ -24,11 +24,11 @@ from mpi4py import MPI
 
 from forming.case import main
 from forming.errors import InputError
+from forming.job import Job
 from forming.materials.fabric import NonCrimpFabric, ShearCurve
 from forming.mesh import box
-from forming.run import Job
 from forming.scene import AffineDisplacement, Body, Displacement, Scene, Table
-from forming.solver.implicit import NewtonOptions
+from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 

@@ -29,12 +29,12 @@ from mpi4py import MPI
 from forming.case import main
 from forming.contact.shapes import Roller
 from forming.errors import InputError
+from forming.job import Job
 from forming.materials.fabric import NonCrimpFabric
 from forming.materials.library import honeycomb_core
-from forming.run import Job
 from forming.sandwich import Outline, sandwich_blank
 from forming.scene import Body, Contact, Displacement, Interface, Linear, Scene, Tool
-from forming.solver.implicit import NewtonOptions
+from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 FABRIC_CORE_FRICTION = 0.52  # paper, section "Friction between materials"
@@ -98,7 +98,7 @@ def build(p: Params) -> Job:
                 Contact("skin_bottom", "bottom", "support", friction=p.tool_friction,
                         stick=stick))
     scene = Scene(name="sandwich_bending", mesh=mesh, bodies=bodies, displacements=symmetry,
-                  tools=tools, contacts=contacts, interfaces=interfaces)
+                  tools=tools, contacts=contacts, interfaces=interfaces, symmetry_copies=4)
 
     def metrics(rec, model) -> dict:
         force = 4 * rec.column("force_roller_z_N")

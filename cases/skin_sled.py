@@ -21,12 +21,12 @@ import numpy as np
 
 from forming.case import main
 from forming.errors import InputError
+from forming.job import Job
 from forming.materials.fabric import NonCrimpFabric
 from forming.materials.library import honeycomb_core
-from forming.run import Job
 from forming.sandwich import Outline, sandwich_blank
 from forming.scene import Body, Displacement, Interface, Linear, Scene, Traction
-from forming.solver.implicit import NewtonOptions
+from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 FABRIC_CORE_FRICTION = 0.52  # paper, section "Friction between materials"

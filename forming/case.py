@@ -111,7 +111,7 @@ class SolverChoice:
     solver: typing.Literal["implicit", "explicit"] | None = None
 
 
-def _split_solver_settings(assignments: list[str]) -> tuple[list[str], list[str], list[str]]:
+def split_solver_settings(assignments: list[str]) -> tuple[list[str], list[str], list[str]]:
     """Split ``--set`` items into the solver choice, ``explicit.*`` settings and the rest."""
     choice, explicit, rest = [], [], []
     for item in assignments:
@@ -127,7 +127,7 @@ def _split_solver_settings(assignments: list[str]) -> tuple[list[str], list[str]
 
 def apply_solver_settings(job, choice: list[str], explicit: list[str]):
     """The job with the solver and explicit settings given on the command line."""
-    from forming.solver.explicit import ExplicitOptions
+    from forming.solver.options import ExplicitOptions
 
     picked = parse_params(SolverChoice, choice)
     if picked.solver is not None:
@@ -150,18 +150,10 @@ def prepare_case(name: str, assignments: list[str], build=None, params_cls=None)
     if build is None:
         module = load_case(name)
         build, params_cls = module.build, module.Params
-    choice, explicit, rest = _split_solver_settings(assignments)
+    choice, explicit, rest = split_solver_settings(assignments)
     params = parse_params(params_cls, rest)
     job = apply_solver_settings(build(params), choice, explicit)
     return job, dataclasses.asdict(params)
-
-
-def recorded_parameters(job, params: dict) -> dict:
-    """The case parameters with the solver settings the job runs with."""
-    recorded = params | {"solver": job.solver}
-    if job.solver == "explicit":
-        recorded["explicit"] = dataclasses.asdict(job.explicit)
-    return recorded
 
 
 def run_case(name: str, out: Path, assignments: list[str], build=None, params_cls=None) -> dict:
@@ -172,10 +164,10 @@ def run_case(name: str, out: Path, assignments: list[str], build=None, params_cl
     from forming.run import simulate
 
     job, params = prepare_case(name, assignments, build, params_cls)
-    return simulate(job, Path(out), name, recorded_parameters(job, params))
+    return simulate(job, Path(out), name, params)
 
 
-def _apply_petsc_args(extra: list[str]) -> None:
+def apply_petsc_args(extra: list[str]) -> None:
     """Pass ``-option value`` pairs left on the command line to PETSc."""
     from petsc4py import PETSc
 
@@ -213,7 +205,7 @@ def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
     setup()
     comm = MPI.COMM_WORLD
     try:
-        _apply_petsc_args(extra)
+        apply_petsc_args(extra)
         out = args.out or Path("results") / name
         summary = run_case(name, out, args.assignments, build, params_cls)
     except InputError as exc:
@@ -226,9 +218,8 @@ def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
         for k, v in summary["metrics"].items():
             print(f"  {k} = {v}")
         timing = summary["timing"]
-        work = (f"{timing['time_steps']} time increments" if "time_steps" in timing
-                else f"{timing['newton_iterations']} Newton iterations")
-        print(f"  wall {timing['wall_s']:.2f} s, {timing['steps']} steps, {work}")
+        print(f"  wall {timing['wall_s']:.2f} s, {timing['steps']} steps, "
+              f"{timing['work']} {timing['work_name']}")
         print(f"outputs in {Path(out).resolve()}")
     return 0 if summary["status"] == "completed" else 1
 

@@ -20,7 +20,7 @@ log = logging.getLogger("forming")
 def _compare(args: argparse.Namespace, extra: list[str]) -> int:
     from mpi4py import MPI
 
-    from forming.case import _apply_petsc_args
+    from forming.case import apply_petsc_args
     from forming.compare import compare
     from forming.errors import InputError
     from forming.log import setup
@@ -28,7 +28,7 @@ def _compare(args: argparse.Namespace, extra: list[str]) -> int:
     setup()
     out = args.out or Path("results") / f"{args.case}_compare"
     try:
-        _apply_petsc_args(extra)
+        apply_petsc_args(extra)
         r = compare(args.case, out, args.assignments, reuse=args.reuse)
     except InputError as exc:
         if MPI.COMM_WORLD.rank == 0:

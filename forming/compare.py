@@ -314,10 +314,10 @@ def compare(case: str, out: Path, assignments: list[str], targets: Targets = Tar
     """
     from mpi4py import MPI
 
-    from forming.case import _split_solver_settings, prepare_case, recorded_parameters
+    from forming.case import prepare_case, split_solver_settings
     from forming.run import simulate
 
-    if _split_solver_settings(assignments)[0]:
+    if split_solver_settings(assignments)[0]:
         raise InputError("--set solver", "forming compare runs both solvers; drop it")
     # one job (one mesh) for both runs: the solver is the only difference
     job, params = prepare_case(case, assignments, build, params_cls)
@@ -330,7 +330,7 @@ def compare(case: str, out: Path, assignments: list[str], targets: Targets = Tar
             continue
         log.info("compare %s: %s run", case, solver)
         run = replace(job, solver=solver)
-        simulate(run, out / solver, case, recorded_parameters(run, params))
+        simulate(run, out / solver, case, params)
     comm = MPI.COMM_WORLD
     result: dict = {}
     if comm.rank == 0:
@@ -351,8 +351,8 @@ def compare(case: str, out: Path, assignments: list[str], targets: Targets = Tar
             "wall_s_implicit": imp.summary["timing"]["wall_s"],
             "wall_s_explicit": exp.summary["timing"]["wall_s"],
             "steps_implicit": imp.summary["timing"]["steps"],
-            "newton_iterations_implicit": imp.summary["timing"]["newton_iterations"],
-            "time_steps_explicit": exp.summary["timing"].get("time_steps", 0),
+            "newton_iterations_implicit": imp.summary["timing"]["work"],
+            "time_steps_explicit": exp.summary["timing"]["work"],
             "explicit_quasi_static": bool(em.get("quasi_static", False)),
             "kinetic_to_internal_max": em.get("kinetic_to_internal_max", float("nan")),
             "energy_balance_error_rel": em.get("energy_balance_error_rel", float("nan")),
@@ -370,7 +370,7 @@ def compare(case: str, out: Path, assignments: list[str], targets: Targets = Tar
             and result["energy_balance_error_rel"] <= targets.energy_balance)
         pngs = _plots(out, response, curves, exp, dist, imp.shape, case)
         _report(out, case, result, shared, pngs, assignments)
-        from forming.output import _clean
+        from forming.output import json_safe
 
-        (out / "compare.json").write_text(json.dumps(_clean(result), indent=2) + "\n")
+        (out / "compare.json").write_text(json.dumps(json_safe(result), indent=2) + "\n")
     return comm.bcast(result, root=0)

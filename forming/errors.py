@@ -1,4 +1,4 @@
-"""Errors raised for bad input and failed solves."""
+"""Errors raised for bad input and for failures inside a solve."""
 
 from __future__ import annotations
 
@@ -16,5 +16,9 @@ class InputError(ValueError):
         self.field = field
 
 
-class SolveFailed(RuntimeError):
-    """A solve stopped before the end of the loading programme."""
+class KernelFailure(RuntimeError):
+    """A quadrature-point kernel failed (inverted element or return mapping).
+
+    Raised inside a solve; the solver turns it into a failed step, which the step
+    lifecycle cuts back (implicit) or reports (explicit).
+    """

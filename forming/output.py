@@ -17,12 +17,12 @@ from mpi4py import MPI
 from forming import compat
 
 
-def _clean(value):
+def json_safe(value):
     """JSON-safe copy (NaN/inf as strings, numpy scalars as Python numbers)."""
     if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
+        return {str(k): json_safe(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_clean(v) for v in value]
+        return [json_safe(v) for v in value]
     if isinstance(value, np.generic):
         value = value.item()
     if isinstance(value, float) and not math.isfinite(value):
@@ -65,7 +65,15 @@ class Recorder:
     def record(self, row: dict[str, float]) -> None:
         """Append a history row (same keys every step) and rewrite history.csv."""
         self.rows.append(row)
-        if self.comm.rank == 0:
+        self._write_history()
+
+    def truncate(self, n_rows: int) -> None:
+        """Keep the first ``n_rows`` rows (a run restored to an earlier state)."""
+        del self.rows[n_rows:]
+        self._write_history()
+
+    def _write_history(self) -> None:
+        if self.comm.rank == 0 and self.rows:
             keys = list(self.rows[0].keys())
             with (self.out / "history.csv").open("w", newline="") as fh:
                 w = csv.DictWriter(fh, fieldnames=keys)
@@ -80,7 +88,7 @@ class Recorder:
         """Write ``summary.json`` (rank 0)."""
         path = self.out / "summary.json"
         if self.comm.rank == 0:
-            path.write_text(json.dumps(_clean(summary), indent=2) + "\n")
+            path.write_text(json.dumps(json_safe(summary), indent=2) + "\n")
         return path
 
     def close(self) -> None:
@@ -139,3 +147,45 @@ def write_final_shape(path: Path, bodies: dict, comm: MPI.Comm) -> Path:
     if comm.rank == 0:
         np.savez_compressed(path, **arrays)
     return path
+
+
+class FieldOutput:
+    """ParaView output of a model: displacements, body fields and tool surfaces.
+
+    Args:
+        model: The model (:class:`~forming.model.Model`).
+        recorder: The run's recorder (owns the writers).
+    """
+
+    def __init__(self, model, recorder: Recorder):
+        self.model = model
+        self.recorder = recorder
+        several = len(model.bodies) > 1
+        for name, body in model.bodies.items():
+            recorder.add_fields(f"displacement_{name}" if several else "displacement", [body.u])
+        self._tools = None
+        if model.scene.tools:
+            # collective (reductions over ranks): on every rank, outside the rank-0 branch
+            bounds, resolution = model.tool_bounds(), model.tool_resolution()
+            if model.comm.rank == 0:
+                from forming.contact.render import ToolSeries
+
+                self._tools = ToolSeries(recorder.out,
+                                         [(t.name, t.shape) for t in model.scene.tools],
+                                         bounds, resolution)
+        for name, body in model.bodies.items():
+            for stem, funcs in body.output_fields().items():
+                recorder.add_fields(f"{stem}_{name}" if several else stem, funcs)
+
+    def write(self, step: int, t: float) -> None:
+        """Bring the body fields up to date and write every field at load parameter ``t``."""
+        for body in self.model.bodies.values():
+            body.update_output()
+        self.recorder.write_fields(t)
+        if self._tools is not None:
+            self._tools.write(step, t, {tl.name: tl.offset(t) for tl in self.model.scene.tools})
+
+    def outputs(self) -> list[str]:
+        """File names written: field series and tool surfaces."""
+        return ([f"{stem}.bp" for stem in self.recorder.field_stems()]
+                + [f"tool_{t.name}.pvd" for t in self.model.scene.tools])

@@ -10,7 +10,7 @@ import ufl
 from dolfinx import fem, mesh  # noqa: I001
 from mpi4py import MPI
 
-from forming.model import SolidBody
+from forming.bodies import SolidBody
 
 # DOLFINx -> VTK vertex order of hexahedra and of their quadrilateral faces
 _HEX_TO_VTK = [0, 1, 3, 2, 4, 5, 7, 6]
@@ -241,3 +241,9 @@ def punch_force_plot(rec, out, stroke: float, title: str, copies: int = 4) -> li
     force = copies * rec.column("force_punch_z_N")
     return [plot_curves(Path(out) / "punch_force.png", [(travel, force, "punch force", "o-")],
                         "stroke [mm]", "punch force [N]", title)]
+
+
+def relative_rms(computed: np.ndarray, reference: np.ndarray) -> float:
+    """RMS of the difference over the RMS of the reference (inf for a zero reference)."""
+    ref = np.sqrt(np.mean(np.square(reference)))
+    return float(np.sqrt(np.mean(np.square(computed - reference))) / ref) if ref > 0 else np.inf

@@ -314,6 +314,9 @@ class Scene:
         interfaces: Contact between bodies over their shared facets.
         quadrature_degree: Quadrature degree of the bulk integrals (None: 2 for
             degree-1 bodies, 4 for degree 2, see ``docs/theory.md``).
+        symmetry_copies: How many copies of the modelled part make the whole part (4
+            for a quarter model with two symmetry planes). Whole-part forces, volumes
+            and plots multiply by it; it is declared here once.
     """
 
     name: str
@@ -325,9 +328,13 @@ class Scene:
     contacts: tuple[Contact, ...] = ()
     interfaces: tuple[Interface, ...] = ()
     quadrature_degree: int | None = None
+    symmetry_copies: int = 1
     metadata: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self) -> None:
+        if self.symmetry_copies not in (1, 2, 4, 8):
+            raise InputError("scene.symmetry_copies",
+                             f"must be 1, 2, 4 or 8, got {self.symmetry_copies!r}")
         names = [b.name for b in self.bodies]
         if not names:
             raise InputError("scene.bodies", "a scene needs at least one body")

@@ -8,7 +8,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import run_mpi
+from helpers import run_mpi
 
 from forming.case import run_case
 

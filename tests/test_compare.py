@@ -74,7 +74,7 @@ def test_interval_means_filter_the_implicit_force_like_the_explicit_one():
     load parameter is the midpoint. With the smooth step the tool slows down at the end,
     so the last interval's time mean lies nearer its end than its midpoint does."""
     from forming.compare import interval_means
-    from forming.solver.explicit import ExplicitOptions
+    from forming.solver.options import ExplicitOptions
 
     s_imp = np.linspace(0.0, 1.0, 2001)
     edges = np.array([0.0, 0.5, 1.0])

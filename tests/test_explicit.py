@@ -10,11 +10,12 @@ import pytest
 
 from forming.case import run_case
 from forming.errors import InputError
+from forming.job import Job
 from forming.materials import ElasticSolid, IsotropicElasticity
 from forming.mesh import box
-from forming.run import Job, simulate
+from forming.run import simulate
 from forming.scene import Body, Displacement, Linear, Scene
-from forming.solver.explicit import ExplicitOptions
+from forming.solver.options import ExplicitOptions
 from forming.solver.stepping import StepControl
 
 E, RHO = 15.0, 6.8e-11  # MPa, t/mm^3: the core's modulus and density estimate

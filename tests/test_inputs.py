@@ -14,7 +14,7 @@ from forming.materials.elasticity import IsotropicElasticity, TransverselyIsotro
 from forming.materials.library import honeycomb_core
 from forming.mesh import box, from_file
 from forming.scene import Linear, Table
-from forming.solver.implicit import NewtonOptions
+from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 

@@ -7,56 +7,19 @@ import json
 
 import numpy as np
 import pytest
-from conftest import run_mpi
+from helpers import run_mpi, solver_taylor
 
 from forming.case import load_case, parse_params, run_case
 from forming.model import Model
-from forming.solver.implicit import ImplicitSolver, NewtonOptions
+from forming.solver.implicit import ImplicitSolver
+from forming.solver.options import NewtonOptions
 
 
 def _block_taylor(model: Model, t: float, seed: int = 0):
-    """Remainders of the solver's own block residual and Jacobian callbacks.
-
-    Prescribed dofs are kept at their (zero) values, where the lifted residual is the
-    true residual.
-    """
+    """Remainders of the solver's own block residual and Jacobian (all blocks)."""
     solver = ImplicitSolver(model, NewtonOptions())
     model.set_load(t)
-    prob = solver.problem
-    snes = prob.solver
-    x, b = prob.x.duplicate(), prob.b.duplicate()
-    n = x.getLocalSize()
-    offsets, o = {}, 0
-    for name in model.names:
-        offsets[name] = o
-        o += model.bodies[name].V.dofmap.index_map.size_local * 3
-    free = np.ones(n, dtype=bool)
-    for bc, name in zip(model.dirichlet.bcs, model.dirichlet.bc_bodies, strict=True):
-        idx, n_owned = bc.dof_indices()
-        free[offsets[name] + np.asarray(idx)[:n_owned]] = False
-    rng = np.random.default_rng(seed)
-    x0 = rng.normal(size=n) * 1e-3 * free
-
-    def residual(xa):
-        x.array[:] = xa
-        solver._residual(snes, x, b)
-        return b.array.copy()
-
-    r0 = residual(x0)
-    x.array[:] = x0
-    solver._jacobian(snes, x, prob.A, None)
-    d = x.duplicate()
-    d.array[:] = rng.normal(size=n) * 1e-3 * free
-    jd = prob.A.createVecLeft()
-    prob.A.mult(d, jd)
-    eps = np.array([4e-2, 2e-2, 1e-2, 5e-3])
-    e1, e2 = [], []
-    for e in eps:
-        r = residual(x0 + e * d.array)
-        e1.append(np.linalg.norm(r - r0))
-        e2.append(np.linalg.norm(r - r0 - e * jd.array))
-    slope = lambda v: np.diff(np.log(v)) / np.diff(np.log(eps))  # noqa: E731
-    return slope(e1), slope(e2)
+    return solver_taylor(solver, model, seed)
 
 
 @pytest.mark.parametrize("friction", [0.0, 0.52])

@@ -9,9 +9,9 @@ import gmsh
 import numpy as np
 import pytest
 import ufl
-from conftest import run_mpi
 from dolfinx import fem
 from dolfinx import mesh as dmesh
+from helpers import run_mpi
 from mpi4py import MPI
 
 from forming.errors import InputError

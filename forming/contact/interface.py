@@ -17,14 +17,25 @@ facets agree, and an area average where the deformed normal jumps between facets
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import ufl
 from dolfinx import fem, la  # noqa: I001
 from mpi4py import MPI
 
+from forming.contact.laws import (
+    coulomb_return,
+    normal_pressure,
+    smoothed_pressure,
+    tangent_projector,
+)
 from forming.contact.terms import surface_edge_min
 from forming.errors import InputError
+from forming.history import ForceSampler, interface_columns
 from forming.scene import Interface
+
+log = logging.getLogger(__name__)
 
 
 def interface_entities(md, first, second, region: str) -> np.ndarray:
@@ -77,9 +88,12 @@ class InterfaceTerm:
 
     def __init__(self, spec: Interface, first, second, dS: ufl.Measure, thickness: float):
         self.spec = spec
+        self.name = spec.region
+        self.bodies = (spec.body, spec.other)
         self.first = first
         self.second = second
-        self.dS = dS
+        self._dS = dS
+        self._warned: list[str] = []
         parent = first.domain.md.mesh
         self.comm = parent.comm
         self.entity_maps = first.domain.entity_maps + second.domain.entity_maps
@@ -90,7 +104,7 @@ class InterfaceTerm:
         self.penalty = spec.penalty or 10.0 * first.contact_stiffness() / h
         self.friction = spec.friction if spec.kind == "frictional" else 0.0
         self.bonded = spec.kind == "bonded"
-        self.eps = fem.Constant(parent, self.penalty)
+        self._eps = fem.Constant(parent, self.penalty)
         msh = first.mesh
         W = fem.functionspace(msh, ("Lagrange", 1))
         Wv = fem.functionspace(msh, ("Lagrange", 1, (3,)))
@@ -108,27 +122,27 @@ class InterfaceTerm:
         n = m / ufl.sqrt(ufl.dot(m, m))
         self.normal = n
         jump = u2 - u1
-        proj = ufl.Identity(3) - ufl.outer(n, n)
+        proj = tangent_projector(n)
         self.slip_total = proj * jump
         self.gap = ufl.dot(jump, n)
         self.pressure = None
         self.shear = None
         if self.bonded:
-            traction = self.lam_t("+") - self.eps * jump  # on the second body
+            traction = self.lam_t("+") - self._eps * jump  # on the second body
         else:
-            trial_p = self.lam_n("+") - self.eps * self.gap
+            trial_p = self.lam_n("+") - self._eps * self.gap
             if spec.smoothing > 0.0:
                 # smoothed ramp: every node of a conforming interface starts at the kink
                 # (gap 0, pressure 0), where Newton can cycle between open and closed
                 delta = fem.Constant(parent, spec.smoothing * self.penalty * self.tolerance)
-                self.pressure = 0.5 * (trial_p + ufl.sqrt(trial_p * trial_p + delta * delta))
+                self.pressure = smoothed_pressure(trial_p, delta)
             else:
-                self.pressure = ufl.conditional(ufl.ge(trial_p, 0.0), trial_p, 0.0)
+                self.pressure = normal_pressure(trial_p)
             # the Uzawa update uses the exact (kinked) ramp: its fixed point is exact
             # complementarity, and the smoothing only changes the Newton iterates' force by
             # at most delta / 2 (an equivalent penetration of smoothing / 2 x tolerance);
             # updating with the smoothed ramp drove lam * gap to a constant, slowly
-            self._uzawa_pressure = ufl.conditional(ufl.ge(trial_p, 0.0), trial_p, 0.0)
+            self._uzawa_pressure = normal_pressure(trial_p)
             traction = self.pressure * n
         self.u1_prev = fem.Function(first.V)
         self.u2_prev = fem.Function(second.V)
@@ -144,9 +158,7 @@ class InterfaceTerm:
             increment = proj * step_jump
             limit = self.friction * self.pressure
             k_t = limit / self.elastic_slip
-            trial = proj * self.lam_t("+") - k_t * increment
-            size = ufl.sqrt(ufl.dot(trial, trial) + 1e-30)
-            self.shear = ufl.conditional(ufl.le(size, limit), trial, limit * trial / size)
+            self.shear = coulomb_return(proj * self.lam_t("+") - k_t * increment, limit)
             traction = traction + self.shear
         self.stabilisation = None
         if spec.stabilisation > 0.0 and not self.bonded:
@@ -199,14 +211,26 @@ class InterfaceTerm:
         return self.comm.allreduce(local, op=MPI.MAX)
 
     # -- forms ----------------------------------------------------------------------------
-    def residuals(self, v1, v2) -> tuple[ufl.Form, ufl.Form]:
+    def side_residuals(self, v1, v2) -> tuple[ufl.Form, ufl.Form]:
         """Virtual work of the interface traction on the first and the second body."""
-        return (ufl.dot(self.traction, v1("+")) * self.dS,
-                -ufl.dot(self.traction, v2("-")) * self.dS)
+        return (ufl.dot(self.traction, v1("+")) * self._dS,
+                -ufl.dot(self.traction, v2("-")) * self._dS)
+
+    def residuals(self, tests: dict) -> dict[str, ufl.Form]:
+        """Virtual work of the interface traction on both bodies, by body name."""
+        r1, r2 = self.side_residuals(tests[self.spec.body], tests[self.spec.other])
+        return {self.spec.body: r1, self.spec.other: r2}
+
+    def stiffness_estimate(self, tests: dict) -> dict[str, ufl.Form]:
+        """Twice the penalty on each side's nodes: the coupling row adds as much again."""
+        ones = ufl.as_vector([1.0, 1.0, 1.0])
+        w1, w2 = tests[self.spec.body], tests[self.spec.other]
+        return {self.spec.body: 2.0 * self._eps * ufl.dot(ones, w1("+")) * self._dS,
+                self.spec.other: 2.0 * self._eps * ufl.dot(ones, w2("-")) * self._dS}
 
     # -- load programme -------------------------------------------------------------------
     def set_load(self, t: float) -> None:
-        """Nothing moves with the load parameter (kept for the model's interface)."""
+        """Nothing moves with the load parameter: both sides are bodies."""
 
     # -- augmentation ---------------------------------------------------------------------
     def penetration(self) -> float:
@@ -287,3 +311,28 @@ class InterfaceTerm:
         """Total tangential force the first body exerts on the second [N]."""
         return np.array([self.comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
                          for f in self._shear_forms])
+
+    def history_columns(self, forces: ForceSampler) -> dict[str, float]:
+        """Penetration, largest slip, normal force (and stabilisation force) columns.
+
+        Warns once when the slip exceeds ``slip_warning`` times the facet edge: the
+        small-sliding pairing loses accuracy from there.
+        """
+        del forces  # the interface forces are internal to the model
+        names = interface_columns(self.name)
+        slip = self.max_slip()
+        row = {names["penetration"]: self.penetration(), names["slip"]: slip,
+               names["normal_force"]: self.normal_force()}
+        if self.stabilisation is not None:
+            row[names["stabilisation_force"]] = self.stabilisation_force()
+        if slip > self.spec.slip_warning * self.edge and not self._warned:
+            msg = (f"interface {self.name}: slip {slip:.3g} mm exceeds "
+                   f"{self.spec.slip_warning:.2g} x the facet edge ({self.edge:.3g} mm); the "
+                   f"small-sliding pairing loses accuracy from here")
+            self._warned.append(msg)
+            log.warning("%s", msg)
+        return row
+
+    def warnings(self) -> list[str]:
+        """The slip warning, once it was raised."""
+        return list(self._warned)

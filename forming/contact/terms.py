@@ -15,7 +15,9 @@ import ufl
 from dolfinx import fem, mesh  # noqa: I001
 from mpi4py import MPI
 
+from forming.contact.laws import coulomb_return, normal_pressure, tangent_projector
 from forming.contact.shapes import UFL
+from forming.history import MAX_PENETRATION, ForceSampler, force_column
 from forming.scene import Contact, Tool
 
 
@@ -32,39 +34,42 @@ class ContactTerm:
     """Contact between a surface region of a body and one rigid tool.
 
     Args:
-        contact: The scene's contact pair.
+        spec: The scene's contact pair.
         tool: The tool it refers to.
-        body: The body whose surface touches (``SolidBody`` or ``FabricBody``).
+        body: The body whose surface touches (a
+            :class:`~forming.bodies.base.DeformableBody`).
         thickness: Smallest extent of the body [mm] (caps the default tolerance).
     """
 
-    def __init__(self, contact: Contact, tool: Tool, body, thickness: float):
-        self.contact = contact
+    def __init__(self, spec: Contact, tool: Tool, body, thickness: float):
+        self.spec = spec
         self.tool = tool
         self.body = body
+        self.name = tool.name
+        self.bodies = (spec.body,)
         msh = body.mesh  # the body's own mesh (multipliers, nodal evaluation)
         parent = body.domain.md.mesh  # the scene mesh (forms)
         self.comm = msh.comm
-        facets = body.domain.facets(contact.region)
+        facets = body.domain.facets(spec.region)
         h = surface_edge_min(msh, facets)
-        self.tolerance = contact.tolerance or 0.01 * min(h, thickness)
+        self.tolerance = spec.tolerance or 0.01 * min(h, thickness)
         stiffness = body.contact_stiffness()
-        self.penalty = contact.penalty or 10.0 * stiffness / h
-        self.friction = contact.friction
+        self.penalty = spec.penalty or 10.0 * stiffness / h
+        self.friction = spec.friction
         # elastic slip of the penalty stick law (None: augmented stick constraint)
-        self.elastic_slip = 0.005 * h if contact.stick == "elastic_slip" else None
-        self.ds = body.domain.ds(contact.region, quadrature_rule="vertex", quadrature_degree=1)
+        self.elastic_slip = 0.005 * h if spec.stick == "elastic_slip" else None
+        self._ds = body.domain.ds(spec.region, quadrature_rule="vertex", quadrature_degree=1)
         W = fem.functionspace(msh, ("Lagrange", 1))
         self.lam_n = fem.Function(W, name=f"pressure_{tool.name}")
-        self.offset = fem.Constant(parent, np.zeros(3))
-        self.eps = fem.Constant(parent, self.penalty)
+        self._offset = fem.Constant(parent, np.zeros(3))
+        self._eps = fem.Constant(parent, self.penalty)
         self.lam_t = None
         Wv = None
         if self.friction > 0.0:  # a frictionless pair compiles no tangential terms
             Wv = fem.functionspace(msh, ("Lagrange", 1, (3,)))
             self.lam_t = fem.Function(Wv, name=f"shear_{tool.name}")
             self.u_prev = fem.Function(body.V)
-            self.offset_prev = fem.Constant(parent, np.zeros(3))
+            self._offset_prev = fem.Constant(parent, np.zeros(3))
         # the same expressions with the coordinates of the scene mesh (forms) and of the
         # body's own mesh (nodal evaluation); identical for a body on the whole mesh
         self.gap, self.normal, self.pressure, self.shear, self.traction = self._terms(
@@ -87,47 +92,53 @@ class ContactTerm:
             self._t_expr = fem.Expression(shear_own, Wv.element.interpolation_points)
             self._t_new = fem.Function(Wv)
         form = body.domain.form
-        self._force_forms = [form(-self.traction[i] * self.ds) for i in range(3)]
-        self._area_form = form(ufl.conditional(ufl.gt(self.pressure, 0.0), 1.0, 0.0) * self.ds)
+        self._force_forms = [form(-self.traction[i] * self._ds) for i in range(3)]
+        self._area_form = form(ufl.conditional(ufl.gt(self.pressure, 0.0), 1.0, 0.0)
+                               * self._ds)
+        self._warnings: list[str] = []
 
     def _terms(self, x):
         """Gap, normal, pressure, shear (None without friction) and traction at ``x``."""
         u = self.body.u
-        p = ufl.variable(x + u - self.offset)
+        p = ufl.variable(x + u - self._offset)
         gap = self.tool.shape.distance(p, UFL)
         grad = ufl.diff(gap, p)
         normal = grad / ufl.sqrt(ufl.dot(grad, grad) + 1e-30)
-        trial_p = self.lam_n - self.eps * gap
-        # ">=": a node that just touches (g = 0) is active, so a body resting on a tool
-        # is supported in the first Jacobian
-        pressure = ufl.conditional(ufl.ge(trial_p, 0.0), trial_p, 0.0)
+        pressure = normal_pressure(self.lam_n - self._eps * gap)
         traction = pressure * normal
         shear = None
         if self.lam_t is not None:
-            proj = ufl.Identity(3) - ufl.outer(normal, normal)
-            slip = proj * (u - self.u_prev - (self.offset - self.offset_prev))
+            proj = tangent_projector(normal)
+            slip = proj * (u - self.u_prev - (self._offset - self._offset_prev))
             limit = self.friction * pressure
             # augmented: the stick constraint's penalty; elastic slip: mu p / s_el, which
             # vanishes with the pressure (docs/theory.md, section 11)
-            k_t = self.eps if self.elastic_slip is None else limit / self.elastic_slip
-            trial = proj * self.lam_t - k_t * slip
-            size = ufl.sqrt(ufl.dot(trial, trial) + 1e-30)
-            # stick up to the cone (+1e-12 MPa): a node that just touches, with zero
-            # pressure and zero trial shear, sticks instead of slipping in a round-off
-            # direction
-            shear = ufl.conditional(ufl.le(size, limit + 1e-12), trial, limit * trial / size)
+            k_t = self._eps if self.elastic_slip is None else limit / self.elastic_slip
+            # stick up to the cone (+1e-12 MPa)
+            shear = coulomb_return(proj * self.lam_t - k_t * slip, limit, slack=1e-12)
             traction = traction + shear
         return gap, normal, pressure, shear, traction
 
     # -- forms -------------------------------------------------------------------------
-    def residual(self, v) -> ufl.Form:
+    def residuals(self, tests: dict) -> dict[str, ufl.Form]:
         """Virtual work of the contact traction (an external force on the body)."""
-        return -ufl.dot(self.traction, v) * self.ds
+        v = tests[self.spec.body]
+        return {self.spec.body: -ufl.dot(self.traction, v) * self._ds}
+
+    def stiffness_estimate(self, tests: dict) -> dict[str, ufl.Form]:
+        """The penalty on every node of the region, touching or not (explicit time step)."""
+        w = tests[self.spec.body]
+        return {self.spec.body: self._eps * ufl.dot(ufl.as_vector([1.0, 1.0, 1.0]), w)
+                * self._ds}
 
     # -- load programme ----------------------------------------------------------------
     def set_load(self, t: float) -> None:
         """Move the tool to its position at load parameter ``t``."""
-        self.offset.value[:] = self.tool.offset(t)
+        self._offset.value[:] = self.tool.offset(t)
+
+    def tool_offset(self) -> np.ndarray:
+        """Current displacement of the tool from its initial position [mm]."""
+        return self._offset.value.copy()
 
     # -- augmentation ------------------------------------------------------------------
     def _reduce_max(self, values: np.ndarray) -> float:
@@ -179,7 +190,7 @@ class ContactTerm:
             self.lam_t.x.array.reshape(-1, 3)[d] = self._t_new.x.array.reshape(-1, 3)[d]
             self.lam_t.x.scatter_forward()
             self.u_prev.x.array[:] = self.body.u.x.array
-            self.offset_prev.value[:] = self.offset.value
+            self._offset_prev.value[:] = self._offset.value
 
     def snapshot(self) -> tuple:
         """Copy of the multipliers (the slip reference is the converged state)."""
@@ -204,6 +215,28 @@ class ContactTerm:
         x = self._p_new.function_space.tabulate_dof_coordinates()
         return self._p_new.x.array[self._owned].copy(), x[self._owned]
 
+    def nodal_gap(self) -> tuple[np.ndarray, np.ndarray]:
+        """Gap to the tool [mm] and reference coordinates of this rank's region nodes."""
+        self._gap.interpolate(self._gap_expr, cells0=self._cells)
+        x = self._gap.function_space.tabulate_dof_coordinates()
+        return self._gap.x.array[self._owned].copy(), x[self._owned]
+
     def contact_area(self) -> float:
         """Area of the region in contact [mm^2] (nodal, vertex rule)."""
         return self.comm.allreduce(fem.assemble_scalar(self._area_form), op=MPI.SUM)
+
+    def history_columns(self, forces: ForceSampler) -> dict[str, float]:
+        """The force on the tool, as the solver samples it [N]."""
+        f = forces.tool_force(self)
+        return {force_column(self.name, i): float(f[i]) for i in range(3)}
+
+    def warnings(self) -> list[str]:
+        """None: a tool contact has nothing to warn about yet."""
+        return list(self._warnings)
+
+
+def penetration_column(contacts: list[ContactTerm]) -> dict[str, float]:
+    """The largest penetration over every tool contact [mm] (no column without one)."""
+    if not contacts:
+        return {}
+    return {MAX_PENETRATION: max(c.penetration() for c in contacts)}

@@ -18,8 +18,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import dataclass
-from typing import Literal
+from dataclasses import asdict
 
 import numpy as np
 import ufl
@@ -28,83 +27,13 @@ from dolfinx.fem.petsc import assemble_matrix
 from mpi4py import MPI
 
 from forming import compat  # noqa: F401
-from forming.errors import InputError
-from forming.model import KernelFailure, Model
-from forming.solver.implicit import StepResult
+from forming.errors import InputError, KernelFailure
+from forming.model import Model
+from forming.solver.base import StepResult
+from forming.solver.options import ExplicitOptions
+from forming.solver.stepping import StepControl
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class ExplicitOptions:
-    """Settings of the explicit solver.
-
-    Attributes:
-        loading_time: Duration of the load programme [s] (tool stroke and every
-            prescribed displacement reach their end values at this time).
-        amplitude: ``"smooth"`` (Abaqus' smooth step ``10x^3 - 15x^4 + 6x^5``: the tools
-            start and stop at rest) or ``"linear"`` (constant velocity from the start).
-        safety: Fraction of the stable time step used, in (0, 1].
-        target_time_step: Mass scaling: nodes whose stable time step is smaller get
-            mass added until it reaches this value [s] (reported as
-            ``mass_added_fraction``); None: no mass scaling.
-        damping: Mass-proportional damping coefficient alpha [1/s] (``a += -alpha v``).
-        output_interval: Load-parameter interval between history rows (the stable time
-            step is re-evaluated at each); None: the job's largest load step, at most
-            0.02.
-        quasi_static_limit: Largest kinetic over internal energy of a run that counts as
-            quasi-static (5%, the usual guideline for Abaqus/Explicit forming).
-    """
-
-    loading_time: float = 0.05
-    amplitude: Literal["smooth", "linear"] = "smooth"
-    safety: float = 0.9
-    target_time_step: float | None = None
-    damping: float = 0.0
-    output_interval: float | None = None
-    quasi_static_limit: float = 0.05
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.loading_time) and self.loading_time > 0):
-            raise InputError("explicit.loading_time", f"must be > 0 s, got {self.loading_time!r}")
-        if self.amplitude not in ("smooth", "linear"):
-            raise InputError("explicit.amplitude",
-                             f"must be 'smooth' or 'linear', got {self.amplitude!r}")
-        if not 0 < self.safety <= 1:
-            raise InputError("explicit.safety", f"must lie in (0, 1], got {self.safety!r}")
-        dt = self.target_time_step
-        if dt is not None and not (math.isfinite(dt) and dt > 0):
-            raise InputError("explicit.target_time_step", f"must be > 0 s, got {dt!r}")
-        if not (math.isfinite(self.damping) and self.damping >= 0):
-            raise InputError("explicit.damping", f"must be >= 0, got {self.damping!r}")
-        iv = self.output_interval
-        if iv is not None and not 0 < iv <= 1:
-            raise InputError("explicit.output_interval", f"must lie in (0, 1], got {iv!r}")
-        if not self.quasi_static_limit > 0:
-            raise InputError("explicit.quasi_static_limit",
-                             f"must be > 0, got {self.quasi_static_limit!r}")
-
-    def load(self, tau: float) -> float:
-        """Load parameter at time ``tau`` [s]."""
-        x = min(max(tau / self.loading_time, 0.0), 1.0)
-        if self.amplitude == "linear":
-            return x
-        return x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
-
-    def time_of(self, s: float) -> float:
-        """Time at which the load parameter reaches ``s`` (inverse of :meth:`load`)."""
-        if s >= 1.0:
-            return self.loading_time
-        if self.amplitude == "linear":
-            return s * self.loading_time
-        lo, hi = 0.0, 1.0
-        for _ in range(60):  # bisection: the smooth step is monotone on [0, 1]
-            mid = 0.5 * (lo + hi)
-            if self.load(mid * self.loading_time) < s:
-                lo = mid
-            else:
-                hi = mid
-        return 0.5 * (lo + hi) * self.loading_time
 
 
 def body_density(body) -> float:
@@ -113,10 +42,10 @@ def body_density(body) -> float:
     Raises:
         InputError: Neither gives one.
     """
-    rho = body.body.density if body.body.density is not None else getattr(
+    rho = body.spec.density if body.spec.density is not None else getattr(
         body.material, "density", None)
     if rho is None:
-        raise InputError(f"body.{body.body.name}.density",
+        raise InputError(f"body.{body.spec.name}.density",
                          "the explicit solver needs a mass density (Body.density or the "
                          "material's density) [t/mm^3]")
     return float(rho)
@@ -129,7 +58,7 @@ class _BodyState:
         self.name = name
         self.body = body
         V = body.V
-        if body.body.degree != 1:
+        if body.spec.degree != 1:
             raise InputError(f"body.{name}.degree",
                              "the explicit solver needs linear elements (row-sum lumping)")
         self.n_owned = V.dofmap.index_map.size_local * 3
@@ -168,7 +97,7 @@ class _ExternalTerm:
     def __init__(self, state: _BodyState, form: fem.Form, contact=None):
         self.state = state
         self.form = form
-        self.contact = contact  # the tool contact, None for an interface side
+        self.contact = contact  # the tool contact (a ContactTerm), None otherwise
         self.vec = fem.Function(state.body.V)
         self.r_old = np.zeros(state.n_owned)
 
@@ -190,6 +119,9 @@ class ExplicitSolver:
         options: Explicit settings.
     """
 
+    kind = "explicit"
+    work_name = "time increments"
+    work_column = "time_increments"
     retries_on_failure = False  # an unstable explicit run does not recover by cutting back
 
     def __init__(self, model: Model, options: ExplicitOptions | None = None):
@@ -201,20 +133,16 @@ class ExplicitSolver:
                                        strict=True) if b == n] for n in model.names}
         self.states = [_BodyState(n, model.bodies[n], bcs[n]) for n in model.names]
         by_name = {st.name: st for st in self.states}
-        tests = {n: ufl.TestFunction(b.V) for n, b in model.bodies.items()}
+        tests = model.test_functions()
         emaps = model.entity_maps or None
         self._internal = [fem.form(b.residual(tests[n]), entity_maps=emaps)
                           for n, b in model.bodies.items()]
         # contact and interface tractions on their own: tool work and friction energy
-        self._tools = [_ExternalTerm(by_name[c.contact.body],
-                                     fem.form(c.residual(tests[c.contact.body]),
-                                              entity_maps=emaps), c)
-                       for c in model.contacts]
-        self._sides = []
-        for itf in model.interfaces:
-            r1, r2 = itf.residuals(tests[itf.spec.body], tests[itf.spec.other])
-            self._sides += [_ExternalTerm(by_name[itf.spec.body], fem.form(r1, entity_maps=emaps)),
-                            _ExternalTerm(by_name[itf.spec.other], fem.form(r2, entity_maps=emaps))]
+        self._tools = [_ExternalTerm(by_name[name], fem.form(r, entity_maps=emaps), c)
+                       for c in model.contacts for name, r in c.residuals(tests).items()]
+        self._sides = [_ExternalTerm(by_name[name], fem.form(r, entity_maps=emaps))
+                       for itf in model.interfaces
+                       for name, r in itf.residuals(tests).items()]
         # distributed loads: external forces that are neither contact nor interface
         self._loads = [_ExternalTerm(by_name[tr.body], fem.form(
             -ufl.dot(const, tests[tr.body]) * ds, entity_maps=emaps))
@@ -230,12 +158,10 @@ class ExplicitSolver:
         self.dt = self._stable_dt()
         self.time_steps = 0
         self.assembly_seconds = 0.0
-        self.last_augmentations = 0
         self.energy = {"kinetic": 0.0, "internal": 0.0, "friction": 0.0, "damping": 0.0,
                        "external": 0.0}
         self._ke_ie_max = 0.0
         self._balance_max = 0.0
-        self._snap = None
         self._s_end = 0.0
         self._impulse: dict[str, np.ndarray] = {}
         self._reaction_impulse: dict[str, float] = {}
@@ -252,17 +178,11 @@ class ExplicitSolver:
         """Per body: its tangent block and a vector of every penalty its nodes may meet."""
         model = self.model
         jac = model.jacobians()
-        ones = ufl.as_vector([1.0, 1.0, 1.0])
+        estimates = [c.stiffness_estimate(tests) for c in model.constraints]
         out = []
         for i, st in enumerate(self.states):
-            w = tests[st.name]
-            terms = [c.eps * ufl.dot(ones, w) * c.ds for c in model.contacts
-                     if c.contact.body == st.name]  # open contacts included
-            for itf in model.interfaces:  # coupling: the other side's row adds as much
-                if itf.spec.body == st.name:
-                    terms.append(2.0 * itf.eps * ufl.dot(ones, w("+")) * itf.dS)
-                if itf.spec.other == st.name:
-                    terms.append(2.0 * itf.eps * ufl.dot(ones, w("-")) * itf.dS)
+            # open contacts included; an interface counts twice (the coupling row)
+            terms = [e[st.name] for e in estimates if st.name in e]
             pen = sum(terms[1:], terms[0]) if terms else None
             # coupled blocks reach into the other bodies: every body's entity map
             maps = model.entity_maps or None
@@ -356,7 +276,7 @@ class ExplicitSolver:
             # leapfrog: v(n+1/2) = v(n-1/2) + dt a(n); the first half step from rest
             st.v += (dt if self.time_steps else 0.5 * dt) * st.a
             st.body.u.x.array[:] += dt * st.v
-        tool_old = [t.contact.offset.value.copy() for t in self._tools]
+        tool_old = [t.contact.tool_offset() for t in self._tools]
         self.tau += dt
         model.set_load(self.options.load(self.tau))
         for st, (u0, *_rest) in zip(self.states, old, strict=True):
@@ -394,8 +314,8 @@ class ExplicitSolver:
             # force on the tool, mean of both ends of the increment
             force = 0.5 * self.comm.allreduce(
                 (term.r_old + term.r_new).reshape(-1, 3).sum(axis=0), op=MPI.SUM)
-            tools += -float(force @ (term.contact.offset.value - off0))
-            self._impulse[term.contact.tool.name] += force * dt
+            tools += -float(force @ (term.contact.tool_offset() - off0))
+            self._impulse[term.contact.name] += force * dt
         for key, st, w in self._reactions:
             self._reaction_impulse[key] += dt * float(st.f_all.x.array[: st.n_owned] @ w)
         w_int, w_ext, on_bodies = (self.comm.allreduce(v, op=MPI.SUM)
@@ -421,19 +341,23 @@ class ExplicitSolver:
         return self.comm.allreduce(ke, op=MPI.SUM)
 
     # -- step lifecycle ---------------------------------------------------------------------
-    def predict(self, t_new: float, t_old: float, dt_old: float) -> None:
-        """Remember the interval's end and the state to roll back to."""
+    def step_control(self, requested: StepControl) -> StepControl:
+        """Output intervals of fixed size.
+
+        ``output_interval``, else the job's largest load step, at most 0.02; the job's
+        stops are kept.
+        """
+        size = self.options.output_interval or min(requested.max, 0.02)
+        return StepControl(initial=size, max=size, min=size, stops=requested.stops)
+
+    def advance(self, t_old: float, t_new: float, dt_old: float) -> None:
+        """Start the interval to load parameter ``t_new``; the increments walk the load."""
         del t_old, dt_old
         self._s_end = t_new
-        self._impulse = {t.contact.tool.name: np.zeros(3) for t in self._tools}
+        self._impulse = {t.contact.name: np.zeros(3) for t in self._tools}
         self._reaction_impulse = {key: 0.0 for key, _st, _w in self._reactions}
         self._tau_start = self.tau
-        # the lifecycle set the load of the interval's end; the increments walk to it
         self.model.set_load(self.options.load(self.tau))
-        self._snap = ([(st.v.copy(), st.a.copy(), st.f_int.x.array.copy(),
-                        st.f_all.x.array.copy()) for st in self.states],
-                      [t.vec.x.array.copy() for t in self._terms],
-                      self.tau, dict(self.energy), self.time_steps)
 
     def solve(self) -> StepResult:
         """Integrate in time until the load parameter reaches the interval's end."""
@@ -466,13 +390,22 @@ class ExplicitSolver:
             reason = "failed on another rank"
         return StepResult(ok, self.time_steps - n0, [], reason, time.perf_counter() - t0)
 
-    def accept(self, u_before: list[np.ndarray], force_scale: float = 0.0) -> None:
+    def accept(self, force_scale: float) -> None:
         """Nothing to carry over: the state lives in the solver's vectors."""
-        del u_before, force_scale
+        del force_scale
 
-    def reject(self) -> None:
-        """Return velocities, energies and time to the start of the interval."""
-        states, terms, self.tau, energy, self.time_steps = self._snap
+    def snapshot(self) -> tuple:
+        """Velocities, accelerations, force vectors, time, energies and counters."""
+        return ([(st.v.copy(), st.a.copy(), st.f_int.x.array.copy(),
+                  st.f_all.x.array.copy()) for st in self.states],
+                [t.vec.x.array.copy() for t in self._terms],
+                self.tau, dict(self.energy), self.time_steps, self.dt,
+                self._ke_ie_max, self._balance_max)
+
+    def restore(self, snap: tuple) -> None:
+        """Return velocities, energies and time to a snapshot."""
+        (states, terms, self.tau, energy, self.time_steps, self.dt, self._ke_ie_max,
+         self._balance_max) = snap
         self.energy = dict(energy)
         for st, (v, a, fi, fa) in zip(self.states, states, strict=True):
             st.v[:], st.a[:] = v, a
@@ -486,29 +419,37 @@ class ExplicitSolver:
         e = self.energy
         return e["kinetic"] + e["internal"] + e["friction"] + e["damping"] - e["external"]
 
-    def history_row(self) -> dict[str, float]:
-        """Energy columns of the history [N mm], the time step, and tool forces.
+    def tool_force(self, contact) -> np.ndarray:
+        """Mean force on the tool over the output interval (impulse over time).
 
         A penalty contact in explicit dynamics rings at the contact frequency, so the
         force at an instant scatters; like the anti-aliasing filter of Abaqus/Explicit's
-        history output, the tool forces and reactions written here are the means over the
-        output interval (impulse over time), replacing the instantaneous ``force_*`` and
-        ``reaction_*`` columns. A reaction is the static one (the residual at the
-        prescribed dofs, without the inertia of the moving nodes).
+        history output, the force reported is the mean over the interval. At the start
+        (no interval yet) it is the force of the current state.
         """
-        e = self.energy
         span = self.tau - self._tau_start
-        forces = {}
-        if span > 0:
-            for name, imp in self._impulse.items():
-                forces |= {f"force_{name}_{'xyz'[i]}_N": float(imp[i] / span) for i in range(3)}
-            for key, imp in self._reaction_impulse.items():
-                forces[f"reaction_{key}_N"] = self.comm.allreduce(imp, op=MPI.SUM) / span
-        return forces | {"time_s": self.tau, "time_step_s": self.dt,
+        if span > 0 and contact.name in self._impulse:
+            return self._impulse[contact.name] / span
+        return contact.force()
+
+    def reaction(self, key: str) -> float:
+        """Mean static reaction over the output interval.
+
+        The static reaction is the residual at the face's prescribed dofs, without the
+        inertia of the moving nodes.
+        """
+        span = self.tau - self._tau_start
+        if span > 0 and key in self._reaction_impulse:
+            return self.comm.allreduce(self._reaction_impulse[key], op=MPI.SUM) / span
+        return self.model.dirichlet.reaction(key)
+
+    def history_columns(self, result: StepResult) -> dict[str, float]:
+        """Time increments of the interval, time, time step and the energy ledger [N mm]."""
+        e = self.energy
+        return {"time_increments": result.work, "time_s": self.tau, "time_step_s": self.dt,
                 "energy_kinetic_Nmm": e["kinetic"], "energy_internal_Nmm": e["internal"],
                 "energy_friction_Nmm": e["friction"], "energy_damping_Nmm": e["damping"],
-                "work_external_Nmm": e["external"],
-                "energy_balance_Nmm": self.balance()}
+                "work_external_Nmm": e["external"], "energy_balance_Nmm": self.balance()}
 
     def metrics(self) -> dict[str, float | bool]:
         """Figures every explicit run reports (``summary.json`` metrics)."""
@@ -524,4 +465,8 @@ class ExplicitSolver:
         """Figures for ``summary.json`` timing."""
         return {"time_steps": self.time_steps, "stable_time_step_s": self.dt,
                 "loading_time_s": self.options.loading_time,
-                "newton_iterations": 0, "newton_per_step": 0.0}
+                "assembly_s": self.comm.allreduce(self.assembly_seconds) / self.comm.size}
+
+    def parameters(self) -> dict:
+        """The explicit settings the run used."""
+        return {"explicit": asdict(self.options)}

@@ -5,8 +5,6 @@ from __future__ import annotations
 import itertools
 import logging
 import time
-from dataclasses import dataclass, field
-from typing import Literal
 
 import numpy as np
 from dolfinx import fem  # noqa: I001
@@ -15,97 +13,16 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from forming import compat  # noqa: F401
-from forming.errors import InputError
-from forming.model import KernelFailure, Model
+from forming.errors import InputError, KernelFailure
+from forming.model import Model
+from forming.solver.base import StepResult
+from forming.solver.options import NewtonOptions
+from forming.solver.stepping import StepControl
 
 log = logging.getLogger(__name__)
 _ids = itertools.count()
 
 _REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
-
-
-@dataclass(frozen=True)
-class NewtonOptions:
-    """Newton and linear-solver settings.
-
-    Attributes:
-        linear_solver: ``"mumps"`` (direct LU, default) or ``"gamg"`` (GMRES + smoothed
-            aggregation AMG with rigid-body near-null space, for large models).
-        rtol: Residual reduction relative to the first residual of a step.
-        atol: Absolute residual norm [N].
-        force_rtol: Newton also stops when the residual norm is below this fraction of
-            the force scale of the last converged step (largest reaction or tool force).
-            1e-4 accepts a force imbalance 50 times smaller than Abaqus/Standard's default
-            (5e-3 of the average force); it ends the slow tail that stick-slip switching
-            of unloaded contact nodes causes. 0 switches it off.
-        max_it: Newton iterations before a step counts as failed.
-        line_search: ``"basic"`` (full Newton step) or ``"bt"`` (backtracking).
-        predictor: ``"extrapolate"`` (linear in the load parameter) or ``"previous"``.
-        max_augmentations: Uzawa updates of the contact multipliers per step before the
-            step counts as failed.
-        petsc: Extra PETSc options for the SNES prefix, overriding the defaults; the
-            command line (``-forming_<key> value``) overrides both.
-    """
-
-    linear_solver: Literal["mumps", "gamg"] = "mumps"
-    rtol: float = 1e-9
-    atol: float = 1e-8
-    force_rtol: float = 1e-4
-    max_it: int = 25
-    line_search: Literal["basic", "bt"] = "basic"
-    predictor: Literal["extrapolate", "previous"] = "extrapolate"
-    max_augmentations: int = 25
-    petsc: dict[str, str] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        if self.linear_solver not in ("mumps", "gamg"):
-            raise InputError("solver.linear_solver", f"must be 'mumps' or 'gamg', got "
-                             f"{self.linear_solver!r}")
-        if self.line_search not in ("basic", "bt"):
-            raise InputError("solver.line_search", f"must be 'basic' or 'bt', got "
-                             f"{self.line_search!r}")
-        if self.predictor not in ("extrapolate", "previous"):
-            raise InputError("solver.predictor", f"must be 'extrapolate' or 'previous', got "
-                             f"{self.predictor!r}")
-        if not self.force_rtol >= 0.0:
-            raise InputError("solver.force_rtol", f"must be >= 0, got {self.force_rtol}")
-        if self.max_it < 1:
-            raise InputError("solver.max_it", f"must be >= 1, got {self.max_it}")
-
-    def petsc_options(self) -> dict[str, str]:
-        """The SNES/KSP options these settings stand for."""
-        opts: dict[str, str] = {
-            "snes_type": "newtonls",
-            "snes_linesearch_type": self.line_search,
-            "snes_rtol": str(self.rtol),
-            "snes_atol": str(self.atol),
-            "snes_stol": "0",
-            "snes_max_it": str(self.max_it),
-            "snes_max_funcs": "100000",
-            # Dirichlet rows of the residual are in mm, the others in N: no divergence test
-            "snes_divergence_tolerance": "-1",
-        }
-        if self.linear_solver == "mumps":
-            opts |= {"ksp_type": "preonly", "pc_type": "lu",
-                     "pc_factor_mat_solver_type": "mumps"}
-        else:
-            # GMRES: the foam's non-associated flow makes the tangent unsymmetric
-            opts |= {"ksp_type": "gmres", "pc_type": "gamg", "ksp_rtol": "1e-10",
-                     "pc_gamg_threshold": "0.01", "mg_levels_ksp_type": "chebyshev",
-                     "mg_levels_pc_type": "jacobi"}
-        return opts | dict(self.petsc)
-
-
-@dataclass
-class StepResult:
-    """Outcome of one Newton solve."""
-
-    converged: bool
-    iterations: int
-    residuals: list[float]
-    reason: str
-    seconds: float
-    augmentations: int = 0
 
 
 def _rigid_body_modes(V: fem.FunctionSpace) -> PETSc.NullSpace:
@@ -137,6 +54,9 @@ class ImplicitSolver:
         options: Newton and linear-solver settings.
     """
 
+    kind = "implicit"
+    work_name = "Newton iterations"
+    work_column = "newton_iterations"
     retries_on_failure = True  # a step that fails is cut back and retried
 
     def __init__(self, model: Model, options: NewtonOptions | None = None):
@@ -184,8 +104,12 @@ class ImplicitSolver:
         self._failure: str | None = None
         self._u_prev: list[np.ndarray] | None = None
         self.assembly_seconds = 0.0
-        self.last_augmentations = 0
         self._force_scale = 0.0
+        self._u_before: list[np.ndarray] | None = None
+        self._work_total = 0
+        self._work_accepted = 0
+        self._steps = 0
+        self._last_work = 0
         self._user_atol = "snes_atol" not in opts  # set on the command line: keep it
 
     # -- SNES callbacks --------------------------------------------------------------
@@ -226,7 +150,31 @@ class ImplicitSolver:
     def _monitor(self, snes, its, norm) -> None:
         self._residuals.append(float(norm))
 
+    # -- evaluation at a given iterate (verification) ------------------------------------
+    def residual_at(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        """The residual at ``x`` into ``b``, exactly as Newton evaluates it."""
+        self._residual(self.problem.solver, x, b)
+
+    def jacobian_at(self, x: PETSc.Vec) -> PETSc.Mat:
+        """The Jacobian at ``x``, exactly as Newton assembles it (the solver's matrix)."""
+        self._jacobian(self.problem.solver, x, self.problem.A, None)
+        return self.problem.A
+
+    def unknowns(self) -> PETSc.Vec:
+        """A vector shaped like the unknowns of all bodies (block order)."""
+        return self.problem.x.duplicate()
+
     # -- step lifecycle ----------------------------------------------------------------
+    def step_control(self, requested: StepControl) -> StepControl:
+        """The job's load steps, adaptive."""
+        return requested
+
+    def advance(self, t_old: float, t_new: float, dt_old: float) -> None:
+        """Apply the load at ``t_new`` and predict the displacement."""
+        self._u_before = self.model.displacements()
+        self.model.set_load(t_new)
+        self.predict(t_new, t_old, dt_old)
+
     def predict(self, t_new: float, t_old: float, dt_old: float) -> None:
         """Initial guess for the step to ``t_new`` (the load is already set)."""
         if self.options.predictor == "extrapolate" and self._u_prev is not None and dt_old > 0:
@@ -280,34 +228,59 @@ class ImplicitSolver:
         else:
             ok, reason = False, (f"contact constraints not met after "
                                  f"{self.options.max_augmentations} augmentations")
-        self.last_augmentations = aug
         for b in self._bodies:
             b.invalidate()
+        self._work_total += iterations
+        self._last_work = iterations
         return StepResult(ok, iterations, list(self._residuals), reason,
                           time.perf_counter() - t0, aug)
 
-    def accept(self, u_before: list[np.ndarray], force_scale: float = 0.0) -> None:
-        """Remember the step's converged state for the next step.
+    def accept(self, force_scale: float) -> None:
+        """Keep what the next step needs.
 
-        Args:
-            u_before: Displacement of every body before the step (for the extrapolating
-                predictor), in the model's body order.
-            force_scale: Largest reaction or tool force of the step [N] (``force_rtol``).
+        The displacement before the step (the extrapolating predictor) and the step's
+        force scale (``force_rtol``).
         """
-        self._u_prev = u_before
+        self._u_prev = self._u_before
         self._force_scale = force_scale
+        self._steps += 1
+        self._work_accepted += self._last_work
 
-    def reject(self) -> None:
-        """Nothing to undo: the model's snapshot holds the whole state."""
+    def snapshot(self) -> tuple:
+        """The predictor's state and the force scale."""
+        return (self._u_prev, self._force_scale, self._steps, self._work_accepted)
 
-    def history_row(self) -> dict[str, float]:
-        """No columns beyond the lifecycle's (augmentations are recorded there)."""
-        return {}
+    def restore(self, snap: tuple) -> None:
+        """Return to a snapshot."""
+        self._u_prev, self._force_scale, self._steps, self._work_accepted = snap
+
+    # -- reporting ---------------------------------------------------------------------
+    def tool_force(self, contact) -> np.ndarray:
+        """The static force of the converged state."""
+        return contact.force()
+
+    def reaction(self, key: str) -> float:
+        """The static reaction of the converged state."""
+        return self.model.dirichlet.reaction(key)
+
+    def history_columns(self, result: StepResult) -> dict[str, float]:
+        """Newton iterations and last residual of the step; the Uzawa passes with contact."""
+        row = {"newton_iterations": result.work, "residual": result.residual}
+        if self.model.constraints:
+            row["augmentations"] = result.augmentations
+        return row
 
     def metrics(self) -> dict:
         """No solver metrics."""
         return {}
 
     def timing(self) -> dict:
-        """No timing beyond the lifecycle's (Newton counts are kept there)."""
+        """Newton iterations in total (rejected steps included) and per accepted step."""
+        return {"newton_iterations": self._work_total,
+                "newton_per_step": self._work_accepted / max(self._steps, 1),
+                "assembly_s": self.model.comm.allreduce(self.assembly_seconds)
+                / self.model.comm.size}
+
+    def parameters(self) -> dict:
+        """Nothing beyond the case's parameters."""
         return {}

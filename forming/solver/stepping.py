@@ -50,6 +50,17 @@ class StepControl:
             raise InputError("steps.stops", "must lie strictly between 0 and 1")
 
 
+@dataclass(frozen=True)
+class StepperState:
+    """Where a :class:`Stepper` stands (for checkpoints)."""
+
+    t: float
+    dt: float
+    last_dt: float
+    n_accepted: int
+    n_rejected: int
+
+
 class Stepper:
     """Walks the load parameter from 0 to 1 with adaptive steps.
 
@@ -100,3 +111,12 @@ class Stepper:
             raise StepTooSmall(
                 f"step cut below the minimum {self.control.min:g} at load parameter {self.t:.6g}"
             )
+
+    def state(self) -> StepperState:
+        """Where the stepper stands."""
+        return StepperState(self.t, self.dt, self.last_dt, self.n_accepted, self.n_rejected)
+
+    def restore(self, state: StepperState) -> None:
+        """Return to a state."""
+        self.t, self.dt, self.last_dt = state.t, state.dt, state.last_dt
+        self.n_accepted, self.n_rejected = state.n_accepted, state.n_rejected

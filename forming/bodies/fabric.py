@@ -24,6 +24,7 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from forming.bodies.base import BodyBase
 from forming.domain import BodyDomain
 from forming.materials.fabric import NonCrimpFabric
 from forming.scene import Body, Scene
@@ -32,30 +33,24 @@ FIBRE_DEGREE = 1  # one Gauss point per hexahedron
 FULL_DEGREE = 2  # 2 x 2 x 2 Gauss points
 
 
-class FabricBody:
+class FabricBody(BodyBase):
     """A deformable fabric layer: displacement, energy forms and shear-angle output.
 
+    Hyperelastic: no history and nothing evaluated outside the forms, so the body keeps
+    the do-nothing material update of :class:`~forming.bodies.base.BodyBase`.
+
     Args:
-        body: The scene's body; its material is a :class:`NonCrimpFabric`.
+        spec: The scene's body; its material is a :class:`NonCrimpFabric`.
         scene: The scene.
         domain: Where the body lives (its mesh and measures).
     """
 
-    plastic = None  # hyperelastic: no history
-    load_increment = 0.0
-
-    def __init__(self, body: Body, scene: Scene, domain: BodyDomain):
-        self.body = body
-        self.domain = domain
-        msh = domain.mesh
-        self.mesh = msh
-        self.material: NonCrimpFabric = body.material
+    def __init__(self, spec: Body, scene: Scene, domain: BodyDomain):
+        super().__init__(spec, domain)
+        msh = self.mesh
+        self.material: NonCrimpFabric = spec.material
         self.quadrature_degree = FULL_DEGREE
-        self.V = fem.functionspace(msh, ("Lagrange", body.degree, (3,)))
-        self.u = fem.Function(self.V, name="u")
-        self.n_local_cells, self.cells = domain.n_owned_cells, domain.own_cells
         self.n_points = len(self.cells) * 8
-        self.kernel_seconds = 0.0
         # The fibre integral gets its own subdomain id, hence its own kernel: FFCx 0.11
         # mixes up shared subexpressions when one cell kernel holds integrals of
         # different degrees (the shear term came out wrong by 1e-6 relative at a perturbed
@@ -79,10 +74,6 @@ class FabricBody:
         self._wrinkle_expr = fem.Expression(mat.wrinkling_indicator(gamma), pts)
         self._detF_expr = fem.Expression(ufl.det(F), pts)
 
-    def deformation_gradient(self):
-        """UFL deformation gradient."""
-        return ufl.Identity(3) + ufl.grad(self.u)
-
     def residual(self, v) -> ufl.Form:
         """Internal virtual work: the first variation of the strain energy."""
         return ufl.derivative(self.energy, self.u, v)
@@ -90,12 +81,6 @@ class FabricBody:
     def jacobian(self, du, v) -> ufl.Form:
         """Second variation of the strain energy."""
         return ufl.derivative(self.residual(v), self.u, du)
-
-    def update_material(self, want_tangent: bool = True, frozen: bool = False) -> None:
-        """Nothing to evaluate outside the forms (kept for the solver's interface)."""
-
-    def invalidate(self) -> None:
-        """No cached evaluation (kept for the solver's interface)."""
 
     def contact_stiffness(self) -> float:
         """Through-thickness modulus of the layer [MPa] (sets default contact penalties)."""

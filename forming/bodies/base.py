@@ -1,0 +1,148 @@
+"""What every deformable body offers the model and the solvers, and what they share.
+
+A body owns its displacement field, its bulk forms (internal virtual work and its
+linearisation), whatever state lives at its quadrature points, and its output fields.
+The model adds loads, tool contacts and interfaces on top; the solvers see only the
+members of :class:`DeformableBody`.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+import ufl
+from dolfinx import fem  # noqa: I001
+
+from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from forming.domain import BodyDomain
+from forming.kinematics import deformation_gradient
+from forming.scene import Body
+
+
+class DeformableBody(Protocol):
+    """A deformable body of a model (a solid or a fabric layer).
+
+    Attributes:
+        spec: The scene's description of the body (name, material, region).
+        domain: Its mesh and measures.
+        mesh: Its own mesh (the scene mesh or a cell submesh).
+        V: Its displacement space.
+        u: Its displacement.
+        dx: Cell measure of the solve forms (on the scene mesh).
+        own_dx: Cell measure on its own mesh (post-processing).
+        quadrature_degree: Quadrature degree of the bulk integrals.
+        cells: Owned then ghost cells of its own mesh.
+        n_local_cells: Number of owned cells.
+        n_points: Quadrature points evaluated by its kernel on this rank.
+        plastic: Its plastic history, or None.
+        load_increment: Step in the load parameter (viscous regularisation).
+        kernel_seconds: Time spent in its quadrature-point kernel.
+    """
+
+    spec: Body
+    domain: BodyDomain
+    V: fem.FunctionSpace
+    u: fem.Function
+    quadrature_degree: int
+    n_local_cells: int
+    n_points: int
+    load_increment: float
+    kernel_seconds: float
+
+    def deformation_gradient(self):
+        """UFL deformation gradient."""
+
+    def residual(self, v) -> ufl.Form:
+        """Internal virtual work tested with ``v``."""
+
+    def jacobian(self, du, v) -> ufl.Form:
+        """Linearisation of :meth:`residual` in the direction ``du``."""
+
+    def update_material(self, want_tangent: bool = True, frozen: bool = False) -> None:
+        """Evaluate quadrature-point stress (and tangent) at the current displacement."""
+
+    def invalidate(self) -> None:
+        """Forget a cached quadrature-point evaluation."""
+
+    def commit(self) -> None:
+        """Accept the trial history as converged."""
+
+    def snapshot(self) -> tuple:
+        """Copy of the converged state (displacement and history)."""
+
+    def restore(self, snap: tuple) -> None:
+        """Return to a snapshot."""
+
+    def contact_stiffness(self) -> float:
+        """Modulus [MPa] that sets default contact penalties."""
+
+    def output_fields(self) -> dict[str, list[fem.Function]]:
+        """ParaView fields besides the displacement: file stem -> functions."""
+
+    def update_output(self) -> None:
+        """Bring the output fields up to the converged state."""
+
+    def min_det_F(self) -> float:
+        """Smallest Jacobian determinant over all ranks."""
+
+
+class BodyBase:
+    """The members every body shares: spaces, cells, kinematics, displacement state.
+
+    A body without quadrature-point state (a hyperelastic fabric whose energy is a UFL
+    form) inherits the do-nothing :meth:`update_material` and :meth:`invalidate`.
+
+    Args:
+        spec: The scene's body.
+        domain: Where the body lives.
+    """
+
+    plastic = None
+    load_increment = 0.0
+
+    def __init__(self, spec: Body, domain: BodyDomain):
+        self.spec = spec
+        self.domain = domain
+        self.mesh = domain.mesh
+        self.material = spec.material
+        self.V = fem.functionspace(self.mesh, ("Lagrange", spec.degree, (3,)))
+        self.u = fem.Function(self.V, name="u")
+        self.n_local_cells, self.cells = domain.n_owned_cells, domain.own_cells
+        self.kernel_seconds = 0.0
+
+    @property
+    def name(self) -> str:
+        """The body's name in the scene."""
+        return self.spec.name
+
+    def deformation_gradient(self):
+        """UFL deformation gradient of the body's displacement."""
+        return deformation_gradient(self.u)
+
+    def update_material(self, want_tangent: bool = True, frozen: bool = False) -> None:
+        """Nothing to evaluate: the body's stress is a UFL expression of ``u``."""
+
+    def invalidate(self) -> None:
+        """Nothing cached."""
+
+    def commit(self) -> None:
+        """Accept the trial history (none by default)."""
+
+    def snapshot(self) -> tuple:
+        """Copy of the displacement (and history, for a body that has one)."""
+        return (self.u.x.array.copy(), None)
+
+    def restore(self, snap: tuple) -> None:
+        """Return to a snapshot."""
+        self.u.x.array[:] = snap[0]
+        self.invalidate()
+
+    def nodal_coordinates(self) -> np.ndarray:
+        """Reference coordinates of the owned displacement nodes, (n, 3)."""
+        return self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local]
+
+    def nodal_displacements(self) -> np.ndarray:
+        """Displacements of the owned nodes, (n, 3)."""
+        n = self.V.dofmap.index_map.size_local
+        return self.u.x.array.reshape(-1, 3)[:n]

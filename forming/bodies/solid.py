@@ -1,0 +1,216 @@
+"""A solid body whose stress and tangent come from a quadrature-point kernel.
+
+Stress and tangent live in quadrature Functions that a numba kernel fills before each
+residual evaluation; history (plastic strain) lives in plain arrays and is allocated
+only for a plastic material. See ``docs/theory.md``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import basix.ufl
+import numpy as np
+import ufl
+from dolfinx import fem  # noqa: I001
+from mpi4py import MPI
+
+from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from forming.bodies.base import BodyBase
+from forming.domain import BodyDomain
+from forming.errors import KernelFailure
+from forming.kinematics import mandel_contract, mandel_to_tensor, tensor_to_mandel
+from forming.materials.solids import PointMaterial, evaluate
+from forming.scene import Body, Scene
+
+
+@dataclass
+class PlasticState:
+    """Converged and trial history of a plastic body (arrays over quadrature points)."""
+
+    ep: np.ndarray
+    evp: np.ndarray
+    ep_trial: np.ndarray
+    evp_trial: np.ndarray
+
+    @classmethod
+    def zeros(cls, n: int) -> PlasticState:
+        """State of an undeformed body with ``n`` points."""
+        return cls(np.zeros((n, 6)), np.zeros(n), np.zeros((n, 6)), np.zeros(n))
+
+    def commit(self) -> None:
+        """Accept the trial state."""
+        self.ep[:] = self.ep_trial
+        self.evp[:] = self.evp_trial
+
+    def snapshot(self) -> tuple[np.ndarray, np.ndarray]:
+        """Copy of the converged state."""
+        return self.ep.copy(), self.evp.copy()
+
+    def restore(self, snap: tuple[np.ndarray, np.ndarray]) -> None:
+        """Return to a snapshot."""
+        self.ep[:], self.evp[:] = snap
+        self.ep_trial[:], self.evp_trial[:] = snap
+
+
+class SolidBody(BodyBase):
+    """A deformable solid: displacement, quadrature material data and its forms.
+
+    Args:
+        spec: The scene's body.
+        scene: The scene (quadrature degree).
+        domain: Where the body lives (its mesh and measures).
+    """
+
+    def __init__(self, spec: Body, scene: Scene, domain: BodyDomain):
+        super().__init__(spec, domain)
+        msh = self.mesh
+        self.material: PointMaterial = spec.material
+        q = scene.quadrature_degree or (2 if spec.degree == 1 else 4)
+        self.quadrature_degree = q
+        cell = msh.basix_cell()
+        self.QS = fem.functionspace(msh, basix.ufl.quadrature_element(cell, value_shape=(6,),
+                                                                      degree=q))
+        self.QD = fem.functionspace(msh, basix.ufl.quadrature_element(cell, value_shape=(6, 6),
+                                                                      degree=q))
+        self.S = fem.Function(self.QS, name="S")
+        self.D = fem.Function(self.QD, name="D")
+        self._qdofs = self.QS.dofmap.list[self.cells].ravel()
+        self.n_points = self._qdofs.size
+        (self.dx,) = domain.dx(q)  # solve forms: on the scene mesh
+        self.own_dx = domain.own_dx(q)  # post-processing: on the body's mesh
+        F = self.deformation_gradient()
+        C = F.T * F
+        self._C_expr = fem.Expression(
+            ufl.as_vector([C[i, j] for i in range(3) for j in range(3)] + [ufl.det(F)]),
+            self.QS.element.interpolation_points,
+        )
+        self.plastic: PlasticState | None = (
+            PlasticState.zeros(self.n_points) if self.material.plastic else None
+        )
+        self._evp_cells = None  # cell means of the plastic strain (output)
+        if self.plastic is not None:
+            self._evp_cells = fem.Function(fem.functionspace(msh, ("DG", 0)),
+                                           name="volumetric_plastic_strain")
+        self._evaluated_at: np.ndarray | None = None
+        self._has_tangent = False
+        self._warm_kernel()
+
+    def _warm_kernel(self) -> None:
+        """Compile (or load from cache) the numba kernel before timing starts."""
+        c = np.eye(3).reshape(1, 9)
+        evaluate(self.material, c, want_tangent=True)
+
+    def first_piola(self):
+        """UFL first Piola-Kirchhoff stress from the quadrature stress."""
+        return self.deformation_gradient() * mandel_to_tensor(self.S)
+
+    def residual(self, v) -> ufl.Form:
+        """Internal virtual work."""
+        return ufl.inner(self.first_piola(), ufl.grad(v)) * self.dx
+
+    def jacobian(self, du, v) -> ufl.Form:
+        """Consistent linearisation of :meth:`residual` using the quadrature tangent."""
+        F = self.deformation_gradient()
+        dF = ufl.grad(du)
+        dE_m = tensor_to_mandel(ufl.sym(F.T * dF))
+        dP = dF * mandel_to_tensor(self.S) + F * mandel_to_tensor(mandel_contract(self.D, dE_m))
+        return ufl.inner(dP, ufl.grad(v)) * self.dx
+
+    # -- quadrature-point update ---------------------------------------------------------
+    def update_material(self, want_tangent: bool = True, frozen: bool = False) -> None:
+        """Evaluate stress (and tangent, trial state) at the current displacement.
+
+        ``frozen`` evaluates a plastic material elastically about its committed plastic
+        state (the unloading stiffness); call :meth:`invalidate` afterwards.
+
+        Raises:
+            KernelFailure: An element is inverted or a return mapping failed.
+        """
+        key = self.u.x.array
+        if (not frozen and self._evaluated_at is not None and want_tangent <= self._has_tangent
+                and np.array_equal(self._evaluated_at, key)):
+            return
+        t0 = time.perf_counter()
+        cj = self._C_expr.eval(self.mesh, self.cells).reshape(-1, 10)
+        n_inverted = int(np.count_nonzero(cj[:, 9] <= 0.0))
+        if n_inverted:  # C alone cannot tell an inverted element
+            self._evaluated_at = None
+            raise KernelFailure(f"{n_inverted} quadrature points: inverted elements (det F <= 0)")
+        cm = cj[:, :9]
+        ps = self.plastic
+        res = evaluate(
+            self.material, cm, None if ps is None else ps.ep, None if ps is None else ps.evp,
+            want_tangent=want_tangent, load_increment=self.load_increment, frozen=frozen,
+        )
+        self.kernel_seconds += time.perf_counter() - t0
+        if res.n_failed:
+            self._evaluated_at = None
+            what = "inverted elements" if res.worst_status == 1 else "return mapping failed"
+            raise KernelFailure(f"{res.n_failed} quadrature points: {what}")
+        self.S.x.array.reshape(-1, 6)[self._qdofs] = res.S
+        if want_tangent:
+            self.D.x.array.reshape(-1, 36)[self._qdofs] = res.D
+        if frozen:
+            self._evaluated_at = None
+            return
+        if ps is not None:
+            ps.ep_trial[:] = res.ep
+            ps.evp_trial[:] = res.evp
+        self._evaluated_at = key.copy()
+        self._has_tangent = want_tangent
+
+    def invalidate(self) -> None:
+        """Forget the cached evaluation (after the state or ``u`` changed outside SNES)."""
+        self._evaluated_at = None
+
+    # -- history -------------------------------------------------------------------------
+    def commit(self) -> None:
+        """Accept the trial plastic state as converged."""
+        if self.plastic is not None:
+            self.plastic.commit()
+        self.invalidate()
+
+    def snapshot(self) -> tuple:
+        """Copy of the displacement and the converged plastic state."""
+        return (self.u.x.array.copy(),
+                None if self.plastic is None else self.plastic.snapshot())
+
+    def restore(self, snap: tuple) -> None:
+        """Return to a snapshot."""
+        self.u.x.array[:] = snap[0]
+        if snap[1] is not None:
+            self.plastic.restore(snap[1])
+        self.invalidate()
+
+    def contact_stiffness(self) -> float:
+        """Largest diagonal elastic modulus [MPa] (sets default contact penalties)."""
+        return float(np.max(np.diag(self.material.kernel_data().cel)))
+
+    # -- outputs -------------------------------------------------------------------------
+    def output_fields(self) -> dict[str, list[fem.Function]]:
+        """ParaView fields besides the displacement: file stem -> functions."""
+        return {} if self._evp_cells is None else {"plastic_strain": [self._evp_cells]}
+
+    def update_output(self) -> None:
+        """Cell means of the converged plastic strain into the output fields."""
+        if self.plastic is not None:
+            f = self._evp_cells
+            f.x.array[: self.n_local_cells] = self.cell_average(self.plastic.evp)
+            f.x.scatter_forward()
+
+    def min_det_F(self) -> float:
+        """Smallest Jacobian determinant over the quadrature points of all ranks."""
+        cj = self._C_expr.eval(self.mesh, self.cells[: self.n_local_cells]).reshape(-1, 10)
+        local = float(cj[:, 9].min()) if cj.size else np.inf
+        return self.mesh.comm.allreduce(local, op=MPI.MIN)
+
+    def cell_average(self, values: np.ndarray) -> np.ndarray:
+        """Average of point values over each local cell (owned cells only)."""
+        per_cell = values.reshape(len(self.cells), -1)[: self.n_local_cells]
+        return per_cell.mean(axis=1)
+
+    def volumetric_plastic_strain(self) -> np.ndarray | None:
+        """Converged volumetric plastic strain per quadrature point (None if elastic)."""
+        return None if self.plastic is None else self.plastic.evp

@@ -1,0 +1,278 @@
+"""The step API: one lifecycle for every solver, driven step by step or as a loop.
+
+A :class:`Simulation` owns a model, its solver, the load stepper and the run's output.
+Each :meth:`Simulation.step` is one attempt at the next load step: the solver advances
+and solves; a converged step is committed, recorded and (every ``field_every`` steps)
+written; a failed one is rolled back and cut (or, for a solver that does not retry,
+ends the run). :meth:`Simulation.run` is the loop that :func:`forming.run.simulate`
+calls; a driver (the blank optimiser, a study, a coupled code) calls :meth:`step` until
+a condition of its own, reads :attr:`Simulation.model`, and calls :meth:`finish`.
+
+    sim = Simulation(job, out, "hemisphere")
+    while not sim.done and sim.t < 0.5:
+        sim.step()
+    summary = sim.finish()
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from forming import compat
+from forming.history import force_column, merge, reaction_column
+from forming.job import Job
+from forming.log import Progress
+from forming.model import Model
+from forming.output import FieldOutput, Recorder, write_final_shape
+from forming.solver import make_solver
+from forming.solver.base import StepResult
+from forming.solver.stepping import Stepper, StepperState, StepTooSmall
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """The whole state of a simulation between two steps (held in memory).
+
+    Attributes:
+        model: The model's snapshot (displacements, history, multipliers).
+        solver: The solver's snapshot (predictor, velocities, energies).
+        stepper: Load parameter, step size and counters.
+        rows: Number of history rows written.
+        fields_at: Load parameter of the last field output.
+    """
+
+    model: dict
+    solver: object
+    stepper: StepperState
+    rows: int
+    fields_at: float | None
+
+
+class Simulation:
+    """A job run step by step, writing the output contract into ``out``.
+
+    Args:
+        job: What to run.
+        out: Output folder (created).
+        case: Name of the case (recorded in ``summary.json``).
+        parameters: The case's parameters (recorded in ``summary.json``).
+    """
+
+    def __init__(self, job: Job, out: Path, case: str = "run",
+                 parameters: dict | None = None):
+        self._t_start = time.perf_counter()
+        self.job = job
+        self.case = case
+        self.parameters = dict(parameters or {})
+        self.comm = job.scene.mesh.mesh.comm
+        self.model = Model(job.scene)
+        self.solver = make_solver(job, self.model)
+        self.stepper = Stepper(self.solver.step_control(job.steps))
+        self.jit_s = time.perf_counter() - self._t_start
+        self.recorder = Recorder(out, self.comm)
+        self.fields = FieldOutput(self.model, self.recorder)
+        self.progress = Progress(case)
+        self.status = "running"
+        self.reason = ""
+        self._fields_at: float | None = None
+        self._work = 0  # the solver's work over every attempted step
+        self._started = False
+        self._finished: dict | None = None
+
+    # -- state -------------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        """Load parameter of the last converged step."""
+        return self.stepper.t
+
+    @property
+    def done(self) -> bool:
+        """True once the load programme is complete or the run has stopped."""
+        return self.status != "running" or self.stepper.done
+
+    @property
+    def out(self) -> Path:
+        """The output folder."""
+        return self.recorder.out
+
+    # -- lifecycle ---------------------------------------------------------------------
+    def start(self) -> None:
+        """Record the initial state (history row 0 and fields at t = 0); idempotent."""
+        if self._started:
+            return
+        self._started = True
+        self.model.set_load(0.0)
+        self.record(StepResult(True, 0))
+        self.write_fields()
+
+    def step(self) -> StepResult:
+        """Attempt the next load step; returns what the solver reported.
+
+        A converged step is committed and recorded; a failed one is rolled back and the
+        step cut (``stepper``), or, when the solver does not retry or the step would be
+        too small, the run stops (:attr:`status` ``"failed"``).
+
+        Raises:
+            RuntimeError: The simulation is already done.
+        """
+        self.start()
+        if self.done:
+            raise RuntimeError(f"simulation {self.case!r} is done ({self.status})")
+        stepper, solver = self.stepper, self.solver
+        t_old, t_new = stepper.t, stepper.propose()
+        state = (self.model.snapshot(), solver.snapshot())
+        solver.advance(t_old, t_new, stepper.last_dt)
+        res = solver.solve()
+        self._work += res.work
+        if res.converged:
+            self.model.commit()
+            stepper.accept(t_new, res.work)
+            solver.accept(self.record(res))
+            log.info("step %d t=%.5f dt=%.3g %s=%d |r|=%.2e %.2fs", stepper.n_accepted, t_new,
+                     stepper.last_dt, solver.work_column, res.work, res.residual, res.seconds)
+            self.progress.update(t_new, f"step {stepper.n_accepted} {solver.work_name} "
+                                        f"{res.work}")
+            if stepper.n_accepted % self.job.field_every == 0 or stepper.done:
+                self.write_fields()
+            return res
+        self.model.restore(state[0])
+        solver.restore(state[1])
+        if not solver.retries_on_failure:
+            return self._fail(f"at load parameter {t_old:.6g}: {res.reason}", res)
+        log.warning("step to t=%.5f failed after %d %s: %s; cutting back", t_new, res.work,
+                    solver.work_name, res.reason)
+        try:
+            stepper.reject()
+        except StepTooSmall as exc:
+            return self._fail(f"{exc}; last failure: {res.reason}", res)
+        return res
+
+    def _fail(self, reason: str, res: StepResult) -> StepResult:
+        self.status, self.reason = "failed", reason
+        log.error("run stopped: %s", reason)
+        return res
+
+    def run(self) -> dict:
+        """Step to the end of the load programme (or a failure) and finish."""
+        self.start()
+        while not self.done:
+            self.step()
+        return self.finish()
+
+    # -- output hooks -----------------------------------------------------------------
+    def record(self, result: StepResult) -> float:
+        """Append the history row of the current (converged) state.
+
+        Each writer adds its own columns (the stepper's, the solver's, the model's
+        objects', the case's probe); a column written twice is an error.
+
+        Returns:
+            The step's force scale: the largest reaction or tool force [N].
+        """
+        row: dict[str, float] = {}
+        owners: dict[str, str] = {}
+        st = self.stepper
+        merge(row, {"step": st.n_accepted, "t": st.t, "dt": st.last_dt}, "stepper", owners)
+        merge(row, self.solver.history_columns(result), f"{self.solver.kind} solver", owners)
+        merge(row, {"step_wall_s": result.seconds}, "simulation", owners)
+        merge(row, self.model.history_columns(self.solver), "model", owners)
+        if self.job.probe is not None:
+            merge(row, self.job.probe(self.model), "case probe", owners)
+        self.recorder.record(row)
+        return self._force_scale(row)
+
+    def _force_scale(self, row: dict[str, float]) -> float:
+        scale = max((abs(row[reaction_column(k)]) for k in self.model.dirichlet.reaction_keys),
+                    default=0.0)
+        for c in self.model.contacts:
+            scale = max(scale, float(np.linalg.norm([row[force_column(c.name, i)]
+                                                     for i in range(3)])))
+        return scale
+
+    def write_fields(self) -> None:
+        """Write the ParaView fields of the current state."""
+        self.fields.write(self.stepper.n_accepted, self.stepper.t)
+        self._fields_at = self.stepper.t
+
+    def checkpoint(self) -> Checkpoint:
+        """The simulation's state between two steps (in memory)."""
+        self.start()
+        return Checkpoint(self.model.snapshot(), self.solver.snapshot(), self.stepper.state(),
+                          len(self.recorder.rows), self._fields_at)
+
+    def restore(self, cp: Checkpoint) -> None:
+        """Return to a checkpoint: model, solver, stepper and history rows.
+
+        Fields already written past the checkpoint stay in the ``.bp`` series; the next
+        output appends to it.
+        """
+        self.model.restore(cp.model)
+        self.solver.restore(cp.solver)
+        self.stepper.restore(cp.stepper)
+        self.model.set_load(self.stepper.t)
+        self.recorder.truncate(cp.rows)
+        self._fields_at = cp.fields_at
+        self.status, self.reason = "running", ""
+
+    def finish(self) -> dict:
+        """Close the output, evaluate the case's metrics and write ``summary.json``.
+
+        Returns:
+            The summary (as written); calling again returns it unchanged.
+        """
+        if self._finished is not None:
+            return self._finished
+        self.start()
+        if self.status == "running":
+            self.status = "completed" if self.stepper.done else "stopped"
+            if not self.stepper.done:
+                self.reason = f"stopped by its driver at load parameter {self.t:.6g}"
+        self.progress.close()
+        if self._fields_at != self.stepper.t:
+            self.write_fields()
+        self.recorder.close()
+        job, model, comm, rec = self.job, self.model, self.comm, self.recorder
+        metrics = job.metrics(rec, model) if job.metrics is not None else {}
+        metrics |= self.solver.metrics()
+        bodies = list(model.bodies.values())
+        summary = {
+            "case": self.case,
+            "status": self.status,
+            "reason": self.reason,
+            "load_parameter_reached": self.stepper.t,
+            "metrics": metrics,
+            "warnings": model.warnings(),
+            "timing": {
+                "wall_s": time.perf_counter() - self._t_start, "jit_s": self.jit_s,
+                "steps": self.stepper.n_accepted, "rejected_steps": self.stepper.n_rejected,
+                "kernel_s": comm.allreduce(sum(b.kernel_seconds for b in bodies)) / comm.size,
+                "work_name": self.solver.work_name, "work": self._work,
+            } | self.solver.timing(),
+            "solver": self.solver.kind,
+            "ranks": comm.size,
+            "mesh": {"cells": sum(comm.allreduce(b.n_local_cells) for b in bodies),
+                     "dofs": sum(b.V.dofmap.index_map.size_global * 3 for b in bodies),
+                     "quadrature_points_per_cell": bodies[0].n_points
+                     // max(len(bodies[0].cells), 1),
+                     "symmetry_copies": job.scene.symmetry_copies},
+            "versions": compat.versions(),
+            "parameters": self.parameters | {"solver": self.solver.kind}
+            | self.solver.parameters(),
+            "outputs": ["summary.json", "history.csv", *self.fields.outputs(),
+                        "final_shape.npz"],
+        }
+        write_final_shape(rec.out / "final_shape.npz", model.bodies, comm)
+        if job.pictures is not None:
+            summary["outputs"] += [p.name for p in job.pictures(model, rec.out)]
+        if comm.rank == 0 and job.plots is not None and rec.rows:
+            summary["outputs"] += [p.name for p in job.plots(rec, rec.out)]
+        rec.write_summary(summary)
+        self._finished = summary
+        return summary

@@ -1,0 +1,157 @@
+"""Settings of the solvers, validated when built.
+
+:class:`NewtonOptions` for the implicit solver (:mod:`forming.solver.implicit`),
+:class:`ExplicitOptions` for the explicit one (:mod:`forming.solver.explicit`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+from forming.errors import InputError
+
+
+@dataclass(frozen=True)
+class NewtonOptions:
+    """Newton and linear-solver settings.
+
+    Attributes:
+        linear_solver: ``"mumps"`` (direct LU, default) or ``"gamg"`` (GMRES + smoothed
+            aggregation AMG with rigid-body near-null space, for large models).
+        rtol: Residual reduction relative to the first residual of a step.
+        atol: Absolute residual norm [N].
+        force_rtol: Newton also stops when the residual norm is below this fraction of
+            the force scale of the last converged step (largest reaction or tool force).
+            1e-4 accepts a force imbalance 50 times smaller than Abaqus/Standard's default
+            (5e-3 of the average force); it ends the slow tail that stick-slip switching
+            of unloaded contact nodes causes. 0 switches it off.
+        max_it: Newton iterations before a step counts as failed.
+        line_search: ``"basic"`` (full Newton step) or ``"bt"`` (backtracking).
+        predictor: ``"extrapolate"`` (linear in the load parameter) or ``"previous"``.
+        max_augmentations: Uzawa updates of the contact multipliers per step before the
+            step counts as failed.
+        petsc: Extra PETSc options for the SNES prefix, overriding the defaults; the
+            command line (``-forming_<key> value``) overrides both.
+    """
+
+    linear_solver: Literal["mumps", "gamg"] = "mumps"
+    rtol: float = 1e-9
+    atol: float = 1e-8
+    force_rtol: float = 1e-4
+    max_it: int = 25
+    line_search: Literal["basic", "bt"] = "basic"
+    predictor: Literal["extrapolate", "previous"] = "extrapolate"
+    max_augmentations: int = 25
+    petsc: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.linear_solver not in ("mumps", "gamg"):
+            raise InputError("solver.linear_solver", f"must be 'mumps' or 'gamg', got "
+                             f"{self.linear_solver!r}")
+        if self.line_search not in ("basic", "bt"):
+            raise InputError("solver.line_search", f"must be 'basic' or 'bt', got "
+                             f"{self.line_search!r}")
+        if self.predictor not in ("extrapolate", "previous"):
+            raise InputError("solver.predictor", f"must be 'extrapolate' or 'previous', got "
+                             f"{self.predictor!r}")
+        if not self.force_rtol >= 0.0:
+            raise InputError("solver.force_rtol", f"must be >= 0, got {self.force_rtol}")
+        if self.max_it < 1:
+            raise InputError("solver.max_it", f"must be >= 1, got {self.max_it}")
+
+    def petsc_options(self) -> dict[str, str]:
+        """The SNES/KSP options these settings stand for."""
+        opts: dict[str, str] = {
+            "snes_type": "newtonls",
+            "snes_linesearch_type": self.line_search,
+            "snes_rtol": str(self.rtol),
+            "snes_atol": str(self.atol),
+            "snes_stol": "0",
+            "snes_max_it": str(self.max_it),
+            "snes_max_funcs": "100000",
+            # Dirichlet rows of the residual are in mm, the others in N: no divergence test
+            "snes_divergence_tolerance": "-1",
+        }
+        if self.linear_solver == "mumps":
+            opts |= {"ksp_type": "preonly", "pc_type": "lu",
+                     "pc_factor_mat_solver_type": "mumps"}
+        else:
+            # GMRES: the foam's non-associated flow makes the tangent unsymmetric
+            opts |= {"ksp_type": "gmres", "pc_type": "gamg", "ksp_rtol": "1e-10",
+                     "pc_gamg_threshold": "0.01", "mg_levels_ksp_type": "chebyshev",
+                     "mg_levels_pc_type": "jacobi"}
+        return opts | dict(self.petsc)
+
+
+@dataclass(frozen=True)
+class ExplicitOptions:
+    """Settings of the explicit solver.
+
+    Attributes:
+        loading_time: Duration of the load programme [s] (tool stroke and every
+            prescribed displacement reach their end values at this time).
+        amplitude: ``"smooth"`` (Abaqus' smooth step ``10x^3 - 15x^4 + 6x^5``: the tools
+            start and stop at rest) or ``"linear"`` (constant velocity from the start).
+        safety: Fraction of the stable time step used, in (0, 1].
+        target_time_step: Mass scaling: nodes whose stable time step is smaller get
+            mass added until it reaches this value [s] (reported as
+            ``mass_added_fraction``); None: no mass scaling.
+        damping: Mass-proportional damping coefficient alpha [1/s] (``a += -alpha v``).
+        output_interval: Load-parameter interval between history rows (the stable time
+            step is re-evaluated at each); None: the job's largest load step, at most
+            0.02.
+        quasi_static_limit: Largest kinetic over internal energy of a run that counts as
+            quasi-static (5%, the usual guideline for Abaqus/Explicit forming).
+    """
+
+    loading_time: float = 0.05
+    amplitude: Literal["smooth", "linear"] = "smooth"
+    safety: float = 0.9
+    target_time_step: float | None = None
+    damping: float = 0.0
+    output_interval: float | None = None
+    quasi_static_limit: float = 0.05
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.loading_time) and self.loading_time > 0):
+            raise InputError("explicit.loading_time", f"must be > 0 s, got {self.loading_time!r}")
+        if self.amplitude not in ("smooth", "linear"):
+            raise InputError("explicit.amplitude",
+                             f"must be 'smooth' or 'linear', got {self.amplitude!r}")
+        if not 0 < self.safety <= 1:
+            raise InputError("explicit.safety", f"must lie in (0, 1], got {self.safety!r}")
+        dt = self.target_time_step
+        if dt is not None and not (math.isfinite(dt) and dt > 0):
+            raise InputError("explicit.target_time_step", f"must be > 0 s, got {dt!r}")
+        if not (math.isfinite(self.damping) and self.damping >= 0):
+            raise InputError("explicit.damping", f"must be >= 0, got {self.damping!r}")
+        iv = self.output_interval
+        if iv is not None and not 0 < iv <= 1:
+            raise InputError("explicit.output_interval", f"must lie in (0, 1], got {iv!r}")
+        if not self.quasi_static_limit > 0:
+            raise InputError("explicit.quasi_static_limit",
+                             f"must be > 0, got {self.quasi_static_limit!r}")
+
+    def load(self, tau: float) -> float:
+        """Load parameter at time ``tau`` [s]."""
+        x = min(max(tau / self.loading_time, 0.0), 1.0)
+        if self.amplitude == "linear":
+            return x
+        return x**3 * (10.0 - 15.0 * x + 6.0 * x * x)
+
+    def time_of(self, s: float) -> float:
+        """Time at which the load parameter reaches ``s`` (inverse of :meth:`load`)."""
+        if s >= 1.0:
+            return self.loading_time
+        if self.amplitude == "linear":
+            return s * self.loading_time
+        lo, hi = 0.0, 1.0
+        for _ in range(60):  # bisection: the smooth step is monotone on [0, 1]
+            mid = 0.5 * (lo + hi)
+            if self.load(mid * self.loading_time) < s:
+                lo = mid
+            else:
+                hi = mid
+        return 0.5 * (lo + hi) * self.loading_time

@@ -1,0 +1,136 @@
+"""Helpers shared by the test modules: Taylor tests, small scenes, run outputs, MPI.
+
+Imported as ``from helpers import ...`` (pytest puts ``tests/`` on the path).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import ufl
+from dolfinx import fem  # noqa: I001
+
+import forming.compat  # noqa: F401
+from forming.mesh import box
+from forming.model import Model
+from forming.scene import Body, Displacement, Linear, Scene
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def history(folder: Path) -> np.ndarray:
+    """A run's ``history.csv`` as a structured array (columns by name)."""
+    return np.genfromtxt(Path(folder) / "history.csv", delimiter=",", names=True)
+
+
+def run_mpi(args: list[str], n: int = 2, timeout: float = 600) -> subprocess.CompletedProcess:
+    """Run ``python args`` under ``mpirun -n n`` with the venv's MPI (killed at ``timeout``)."""
+    mpirun = Path(sys.executable).parent / "mpirun"
+    cmd = [str(mpirun), "-n", str(n), sys.executable, *args]
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    return subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True,
+                          timeout=timeout, check=False)
+
+
+def run_python(args: list[str], timeout: float = 300) -> subprocess.CompletedProcess:
+    """Run ``python args`` in the repository (killed at ``timeout``)."""
+    return subprocess.run([sys.executable, *args], cwd=REPO, capture_output=True, text=True,
+                          timeout=timeout, check=False)
+
+
+def taylor_slopes(residual: Callable[[np.ndarray], np.ndarray],
+                  jacobian_action: np.ndarray, x0: np.ndarray, direction: np.ndarray,
+                  eps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Slopes of the first and second Taylor remainders in log-log.
+
+    ``|R(x0 + e d) - R(x0)|`` falls with slope 1, and ``|R(x0 + e d) - R(x0) - e J d|``
+    with slope 2 when ``jacobian_action = J d`` is the derivative of ``R``.
+    """
+    r0 = residual(x0)
+    e1, e2 = [], []
+    for e in eps:
+        r = residual(x0 + e * direction)
+        e1.append(np.linalg.norm(r - r0))
+        e2.append(np.linalg.norm(r - r0 - e * jacobian_action))
+    logs = np.log(eps)
+    return np.diff(np.log(e1)) / np.diff(logs), np.diff(np.log(e2)) / np.diff(logs)
+
+
+def body_taylor(model: Model, u0: np.ndarray, seed: int = 0):
+    """Taylor slopes of the first body's bulk residual and its Jacobian at ``u0``."""
+    body = model.body
+    v = ufl.TestFunction(body.V)
+    du = ufl.TrialFunction(body.V)
+    r_form = fem.form(body.residual(v))
+    j_form = fem.form(body.jacobian(du, v))
+
+    def residual(u):
+        body.u.x.array[:] = u
+        body.invalidate()
+        body.update_material(want_tangent=True)
+        return fem.assemble_vector(r_form).array.copy()
+
+    residual(u0)
+    jac = fem.assemble_matrix(j_form).to_dense()
+    delta = np.random.default_rng(seed).normal(size=u0.size) * 1e-2
+    eps = np.array([1e-1, 5e-2, 2.5e-2, 1.25e-2, 6.25e-3])
+    return taylor_slopes(residual, jac @ delta, u0, delta, eps)
+
+
+def solver_taylor(solver, model: Model, seed: int = 0):
+    """Taylor slopes of an implicit solver's own residual and Jacobian (all blocks).
+
+    Random free displacements around zero; prescribed dofs stay at their (zero) values,
+    where the lifted residual is the true residual.
+    """
+    x, b = solver.unknowns(), solver.unknowns()
+    n = x.getLocalSize()
+    offsets, o = {}, 0
+    for name in model.names:
+        offsets[name] = o
+        o += model.bodies[name].V.dofmap.index_map.size_local * 3
+    free = np.ones(n, dtype=bool)
+    for bc, name in zip(model.dirichlet.bcs, model.dirichlet.bc_bodies, strict=True):
+        idx, n_owned = bc.dof_indices()
+        free[offsets[name] + np.asarray(idx)[:n_owned]] = False
+    rng = np.random.default_rng(seed)
+    x0 = rng.normal(size=n) * 1e-3 * free
+
+    def residual(xa):
+        x.array[:] = xa
+        solver.residual_at(x, b)
+        return b.array.copy()
+
+    residual(x0)
+    x.array[:] = x0
+    A = solver.jacobian_at(x)
+    d = x.duplicate()
+    d.array[:] = rng.normal(size=n) * 1e-3 * free
+    jd = A.createVecLeft()
+    A.mult(d, jd)
+    return taylor_slopes(residual, jd.array.copy(), x0, d.array.copy(),
+                         np.array([4e-2, 2e-2, 1e-2, 5e-3]))
+
+
+def block_scene(material, clamped: bool = False, cells=(2, 2, 2),
+                stroke: float = -2.0) -> Scene:
+    """A 10 mm cube on its bottom face, its top face pressed down by ``stroke`` [mm].
+
+    Clamped: top and bottom also held in x and y; otherwise symmetry planes at x = 0 and
+    y = 0 and free lateral faces (uniaxial stress).
+    """
+    lateral = {"x": 0.0, "y": 0.0} if clamped else {}
+    return Scene(
+        name="block", mesh=box((10.0, 10.0, 10.0), cells), bodies=(Body("core", material),),
+        displacements=(
+            Displacement("core", "bottom", z=0.0, reaction=False, **lateral),
+            Displacement("core", "top", z=Linear(stroke), **lateral),
+        ) + (() if clamped else (
+            Displacement("core", "xmin", x=0.0, reaction=False),
+            Displacement("core", "ymin", y=0.0, reaction=False))),
+    )
