@@ -20,14 +20,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from mpi4py import MPI
 
+from forming import post
 from forming.case import main
 from forming.errors import InputError
+from forming.fixtures import bias_extension_shear
 from forming.job import Job
 from forming.materials.fabric import NonCrimpFabric, ShearCurve
 from forming.mesh import box
-from forming.post import shear_angle_picture
 from forming.scene import Body, Displacement, Linear, Scene
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
@@ -44,11 +44,6 @@ class Params:
     shear_target_deg: float = 45.0  # pull until the kinematic central angle reaches this
     curve: str | None = None
     max_step: float = 0.05
-
-
-def kinematic_shear(D: float, d: float) -> float:
-    """Central-zone shear angle [rad] of a pin-jointed bias specimen at extension ``d``."""
-    return math.pi / 2 - 2 * math.acos(min((D + d) / (math.sqrt(2) * D), 1.0))
 
 
 def build(p: Params) -> Job:
@@ -71,24 +66,15 @@ def build(p: Params) -> Job:
                        Displacement("ply", "bottom", z=0.0, reaction=False)),
     )
 
-    def centre_shear(model) -> float:
-        """Mean shear angle [deg] of the cells within a quarter width of the centre."""
-        body = model.body
-        body.update_output()
-        n = body.n_local_cells
-        x = body.shear_angle.function_space.tabulate_dof_coordinates()[:n]
-        near = np.hypot(x[:, 0] - length / 2, x[:, 1]) < p.width / 4
-        vals = body.shear_angle.x.array[:n][near]
-        tot = model.comm.allreduce(float(vals.sum()), op=MPI.SUM)
-        cnt = model.comm.allreduce(int(vals.size), op=MPI.SUM)
-        return tot / max(cnt, 1)
-
     def probe(model) -> dict[str, float]:
         d = stroke * model.t
-        centre = centre_shear(model)  # updates the shear-angle field
-        lo, hi = model.body.shear_range_deg()
+        body = model.body
+        body.update_output()
+        # mean shear of the cells within a quarter width of the centre
+        centre = post.cell_mean_near(body, body.shear_angle, (length / 2, 0.0), p.width / 4)
+        lo, hi = body.shear_range_deg()
         return {"extension_mm": d, "central_shear_deg": centre,
-                "kinematic_shear_deg": math.degrees(kinematic_shear(D, d)),
+                "kinematic_shear_deg": math.degrees(bias_extension_shear(D, d)),
                 "shear_field_min_deg": lo, "shear_field_max_deg": hi}
 
     def metrics(rec, model) -> dict:
@@ -116,7 +102,7 @@ def build(p: Params) -> Job:
     return Job(scene=scene, steps=StepControl(initial=p.max_step, max=p.max_step),
                newton=NewtonOptions(line_search="bt"), probe=probe, metrics=metrics,
                plots=plots, field_every=2,
-               pictures=lambda model, out: shear_angle_picture(
+               pictures=lambda model, out: post.shear_angle_picture(
                    model, out, f"Bias extension: shear angle, d = {stroke:.1f} mm"))
 
 

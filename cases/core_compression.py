@@ -16,12 +16,12 @@ from typing import Literal
 
 import numpy as np
 
+from forming import post
 from forming.case import main
 from forming.job import Job, Response
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
 from forming.output import plot_curves
-from forming.post import relative_rms
 from forming.scene import Body, Displacement, Linear, Scene
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
@@ -61,9 +61,6 @@ def build(p: Params) -> Job:
     # land on every point of the input curve so the comparison includes all of them
     stops = tuple(e / p.strain for e in curve.strain[1:] if 0 < e < p.strain)
 
-    def probe(model) -> dict[str, float]:
-        return {}
-
     def nominal(rec) -> tuple[np.ndarray, np.ndarray]:
         e = rec.column("t") * p.strain
         s = -rec.column("reaction_top_z_N") / area
@@ -75,16 +72,14 @@ def build(p: Params) -> Job:
         at_data = np.isin(np.round(e, 10), np.round(np.asarray(curve.strain), 10))
         plateau = (e > 0.1) & (e < 0.6)
         return {
-            "curve_rmse_rel": relative_rms(s, ref),
-            "curve_rmse_rel_at_data_points": relative_rms(s[at_data], ref[at_data]),
+            "curve_rmse_rel": post.relative_rms(s, ref),
+            "curve_rmse_rel_at_data_points": post.relative_rms(s[at_data], ref[at_data]),
             "initial_modulus_MPa": float(s[1] / e[1]) if len(e) > 1 else float("nan"),
             "peak_stress_MPa": float(s[e < 0.1].max()),
             "plateau_stress_MPa": float(s[plateau].mean()) if plateau.any() else float("nan"),
             "final_strain": float(e[-1]),
             "final_stress_MPa": float(s[-1]),
-            "max_volumetric_plastic_strain": float(
-                model.comm.allreduce(model.body.plastic.evp.max(), op=__import__("mpi4py").MPI.MAX)
-            ),
+            "max_volumetric_plastic_strain": post.plastic_strain_max(model.body),
         }
 
     def plots(rec, out: Path) -> list[Path]:
@@ -101,7 +96,7 @@ def build(p: Params) -> Job:
         scene=scene,
         steps=StepControl(initial=0.01, max=p.max_step, min=1e-5, stops=stops),
         newton=NewtonOptions(linear_solver=p.linear_solver),
-        probe=probe, metrics=metrics, plots=plots,
+        metrics=metrics, plots=plots,
         response=Response("reaction_top_z_N", stroke, -1.0, "platen force"),
     )
 

@@ -23,20 +23,14 @@ from typing import Literal
 
 import numpy as np
 import ufl
-from mpi4py import MPI
 
+from forming import post
 from forming.case import main
 from forming.contact.shapes import Plane, RoundedBox
 from forming.errors import InputError
 from forming.job import Job, Response
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
-from forming.post import (
-    contact_metrics,
-    plastic_field,
-    plastic_strain_pictures,
-    punch_force_plot,
-)
 from forming.scene import Body, Contact, Displacement, Linear, Scene, Tool
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
@@ -82,59 +76,35 @@ def build(p: Params) -> Job:
                   Contact("core", "bottom", "plate", friction=p.friction)),
         symmetry_copies=4,
     )
-    def probe(model) -> dict[str, float]:
-        return {"crushed_volume_mm3": 4 * plastic_field(model.body).crushed_volume()}
-
     def metrics(rec, model) -> dict:
-        evp = plastic_field(model.body)
+        evp = post.plastic_field(model.body)
         x = ufl.SpatialCoordinate(model.body.mesh)
         outside = ufl.conditional(ufl.Or(ufl.gt(x[0], p.punch / 2), ufl.gt(x[1], p.punch / 2)),
                                   1.0, 0.0)
         flat = p.punch / 2 - p.fillet
         under = ufl.conditional(ufl.And(ufl.lt(x[0], flat), ufl.lt(x[1], flat)), 1.0, 0.0)
-        # crushing depth: through-thickness extent of crushed material under the punch flat
-        from dolfinx import fem  # after forming: PETSc comes from dolfinx_solver
-
-        depth = 0.0
-        level = fem.Constant(model.body.mesh, 0.0)
-        band = under * ufl.conditional(ufl.lt(x[2], level), 0.0, 1.0)
-        for z0 in np.linspace(0.0, h, 41):
-            level.value = z0
-            if evp.crushed_volume(0.01, band) >= 0.5 * evp.integral(band):
-                depth = h - z0
-                break
-        body = model.body
-        u = body.u.x.array.reshape(-1, 3)
-        xs = body.V.tabulate_dof_coordinates()
-        edge_x = np.isclose(xs[:, 0], half)
-        edge_y = np.isclose(xs[:, 1], half)
-        draw_in = max(float(-u[edge_x, 0].min(initial=0.0)), float(-u[edge_y, 1].min(initial=0.0)))
-        draw_in = model.comm.allreduce(draw_in, op=MPI.MAX)
-        force = rec.column("force_punch_z_N") * 4
-        evp_max = model.comm.allreduce(float(body.plastic.evp.max(initial=0.0)),
-                                       op=MPI.MAX)
-        return {
-            "punch_force_max_N": float(force.max()),
-            "punch_force_final_N": float(force[-1]),
-            "crushed_volume_mm3": 4 * evp.crushed_volume(),
+        evp_max = post.plastic_strain_max(model.body)
+        return post.force_peak_final(rec, model, "force_punch_z_N") | {
+            "crushed_volume_mm3": post.crushed_volume(model),
             "crushed_volume_fraction": evp.crushed_volume() / (half * half * h),
-            "crushing_depth_mm": depth,
+            "crushing_depth_mm": post.crushing_depth(evp, under, h),
             "mean_plastic_strain_under_punch": evp.mean(under),
             "mean_plastic_strain_outside_punch": evp.mean(outside),
-            "edge_draw_in_mm": draw_in,
+            "edge_draw_in_mm": post.edge_draw_in(model.body, half, half),
             # volumetric plastic (log) strain, and as a nominal strain 1 - exp(-evp)
             "crushing_strain_max": evp_max,
             "crushing_strain_max_nominal": 1.0 - float(np.exp(-evp_max)),
-        } | contact_metrics(rec, model)
+        } | post.contact_metrics(rec, model)
 
     def plots(rec, out: Path) -> list[Path]:
-        return punch_force_plot(rec, out, p.stroke + p.gap, "Square-punch crushing")
+        return post.punch_force_plot(rec, out, p.stroke + p.gap, "Square-punch crushing",
+                                     scene.symmetry_copies)
 
     return Job(scene=scene, steps=StepControl(initial=min(0.05, p.max_step), max=p.max_step),
                newton=NewtonOptions(linear_solver=p.linear_solver, line_search="bt"),
-               probe=probe, metrics=metrics, plots=plots,
+               probe=post.crushed_volume_probe, metrics=metrics, plots=plots,
                response=Response("force_punch_z_N", p.stroke + p.gap, label="punch force"),
-               pictures=lambda model, out: plastic_strain_pictures(
+               pictures=lambda model, out: post.plastic_strain_pictures(
                    model, out, "ymin", "Core crushing", tools_3d=("punch",)))
 
 

@@ -15,6 +15,7 @@ from typing import Literal
 
 import numpy as np
 
+from forming import post
 from forming.case import main
 from forming.job import Job
 from forming.materials.library import honeycomb_core
@@ -75,9 +76,7 @@ def build(p: Params) -> Job:
             "modulus_error_rel": modulus / E_PAPER - 1.0,
             "secant_modulus_MPa": float(s[-1] / e[-1]),
             "stress_at_max_strain_MPa": float(s[-1]),
-            "max_volumetric_plastic_strain": float(
-                model.comm.allreduce(float(np.max(model.body.plastic.evp, initial=0.0)),
-                                     op=__import__("mpi4py").MPI.MAX)),
+            "max_volumetric_plastic_strain": post.plastic_strain_max(model.body),
         }
 
     def plots(rec, out: Path) -> list[Path]:

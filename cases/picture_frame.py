@@ -20,10 +20,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from mpi4py import MPI
 
+from forming import post
 from forming.case import main
 from forming.errors import InputError
+from forming.fixtures import frame_gradient, frame_gradient_rate
 from forming.job import Job
 from forming.materials.fabric import NonCrimpFabric, ShearCurve
 from forming.mesh import box
@@ -44,19 +45,6 @@ class Params:
     max_step: float = 0.02
 
 
-def frame_gradient(gamma: float) -> np.ndarray:
-    """Displacement gradient H = F - I of the pin-jointed frame at shear ``gamma`` [rad]:
-    the fibres along x and y turn towards each other by gamma/2 each."""
-    c, s = math.cos(gamma / 2), math.sin(gamma / 2)
-    return np.array([[c - 1.0, s, 0.0], [s, c - 1.0, 0.0], [0.0, 0.0, 0.0]])
-
-
-def frame_gradient_rate(gamma: float) -> np.ndarray:
-    """d(F)/d(gamma) of :func:`frame_gradient`."""
-    c, s = math.cos(gamma / 2), math.sin(gamma / 2)
-    return 0.5 * np.array([[-s, c, 0.0], [c, -s, 0.0], [0.0, 0.0, 0.0]])
-
-
 def build(p: Params) -> Job:
     if not 0.0 < p.shear_max_deg < 80.0:
         raise InputError("shear_max_deg", f"must lie in (0, 80), got {p.shear_max_deg}")
@@ -73,27 +61,20 @@ def build(p: Params) -> Job:
                                                       reaction=False)))
     area = p.side**2
 
-    state: dict = {}
+    power: dict = {}  # the internal power's form, compiled on the first call
 
     def probe(model) -> dict[str, float]:
-        from dolfinx import fem  # after forming: PETSc comes from dolfinx_solver
-
-        body = model.body
-        if "form" not in state:
-            state["w"] = fem.Function(body.V)
-            state["form"] = fem.form(body.residual(state["w"]))
+        if not power:
+            power["of"] = post.InternalPower(model.body)
         gamma = path(model.t)
         rate = frame_gradient_rate(gamma)
-        state["w"].interpolate(lambda x: rate @ x)
-        # dW/dgamma [N mm]: internal virtual work along the frame's motion
-        power = model.comm.allreduce(fem.assemble_scalar(state["form"]), op=MPI.SUM)
-        phi = math.pi / 4 - gamma / 2
-        body.update_output()
-        lo, hi = body.shear_range_deg()
+        dw = power["of"](lambda x: rate @ x)  # dW/dgamma [N mm] along the frame's motion
+        model.body.update_output()
+        lo, hi = model.body.shear_range_deg()
         return {
             "shear_deg": math.degrees(gamma),
-            "frame_force_N": power / (p.side * math.sin(phi)),
-            "normalised_force_N_per_mm": power / (math.cos(gamma) * area),
+            "frame_force_N": dw / (p.side * math.sin(math.pi / 4 - gamma / 2)),
+            "normalised_force_N_per_mm": dw / (math.cos(gamma) * area),
             "input_force_N_per_mm": float(curve.torque(gamma)) / math.cos(gamma),
             "shear_field_min_deg": lo, "shear_field_max_deg": hi,
         }

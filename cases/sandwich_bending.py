@@ -14,7 +14,7 @@ the core's answer. Quarter model: symmetry planes at mid-span (x = 0) and mid-wi
 (y = 0); forces are for the whole strip.
 
 Run: ``python cases/sandwich_bending.py --set interface=bonded`` (or ``frictional``,
-``frictionless``); ``python benchmarks/validate_bending.py`` runs all three.
+``frictionless``).
 """
 
 from __future__ import annotations
@@ -23,9 +23,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-import numpy as np
-from mpi4py import MPI
-
+from forming import post
+from forming.blanks import sandwich
 from forming.case import main
 from forming.contact.shapes import Roller
 from forming.errors import InputError
@@ -33,13 +32,12 @@ from forming.job import Job
 from forming.materials.fabric import NonCrimpFabric
 from forming.materials.library import honeycomb_core
 from forming.sandwich import Outline, sandwich_blank
-from forming.scene import Body, Contact, Displacement, Interface, Linear, Scene, Tool
+from forming.scene import Contact, Linear, Scene, Tool
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 FABRIC_CORE_FRICTION = 0.52  # paper, section "Friction between materials"
 TOOL_FABRIC_FRICTION = 0.23
-BODIES = ("core", "skin_bottom", "skin_top")
 
 
 @dataclass(frozen=True)
@@ -75,18 +73,11 @@ def build(p: Params) -> Job:
     mesh = sandwich_blank(Outline.rectangle(half, p.width / 2), core_thickness=p.core_thickness,
                           skin_thickness=p.skin_thickness, plies=1, element_size=p.element,
                           core_layers=p.core_layers)
-    top = p.core_thickness + 2 * p.skin_thickness
     fabric = NonCrimpFabric(thickness=p.skin_thickness, fibre_angles_deg=tuple(p.fibre_angles))
-    bodies = (Body("core", honeycomb_core(plastic=False), region="core"),
-              Body("skin_bottom", fabric, region="skin_bottom"),
-              Body("skin_top", fabric, region="skin_top"))
-    symmetry = tuple(Displacement(b, plane, **{axis: 0.0}, reaction=False)
-                     for b in BODIES for plane, axis in (("xmin", "x"), ("ymin", "y")))
-    kind = "bonded" if p.interface == "bonded" else "frictional"
-    mu = p.friction if p.interface == "frictional" else 0.0
-    interfaces = tuple(Interface(f"interface_{side}", "core", f"skin_{side}", kind=kind,
-                                 friction=mu) for side in ("bottom", "top"))
-    tools = (Tool("roller", Roller((0.0, 0.0, top + p.roller_radius), p.roller_radius),
+    b = sandwich(mesh, honeycomb_core(plastic=False), fabric, p.core_thickness,
+                 kind="bonded" if p.interface == "bonded" else "frictional",
+                 friction=p.friction if p.interface == "frictional" else 0.0)
+    tools = (Tool("roller", Roller((0.0, 0.0, b.top + p.roller_radius), p.roller_radius),
                   z=Linear(-p.deflection)),
              Tool("support", Roller((p.span / 2, 0.0, -p.roller_radius), p.roller_radius)))
     # fabric on a tool: the elastic-slip stick law, as on the core (docs/theory.md §11).
@@ -97,38 +88,28 @@ def build(p: Params) -> Job:
     contacts = (Contact("skin_top", "top", "roller", friction=p.tool_friction, stick=stick),
                 Contact("skin_bottom", "bottom", "support", friction=p.tool_friction,
                         stick=stick))
-    scene = Scene(name="sandwich_bending", mesh=mesh, bodies=bodies, displacements=symmetry,
-                  tools=tools, contacts=contacts, interfaces=interfaces, symmetry_copies=4)
+    scene = Scene(name="sandwich_bending", mesh=mesh, bodies=b.bodies, displacements=b.symmetry(),
+                  tools=tools, contacts=contacts, interfaces=b.interfaces, symmetry_copies=4)
 
     def metrics(rec, model) -> dict:
-        force = 4 * rec.column("force_roller_z_N")
+        force = post.whole(model, rec.column("force_roller_z_N"))
         d = rec.column("t") * p.deflection
-        k0 = force[1] / d[1] if len(d) > 1 and d[1] > 0 else 0.0
-        end_slip = 0.0
-        for itf in model.interfaces:
-            s, x = itf.slip()
-            at_end = np.isclose(x[:, 0], half)
-            local = float(np.abs(s[at_end, 0]).max(initial=0.0))
-            end_slip = max(end_slip, model.comm.allreduce(local, op=MPI.MAX))
-        return {
-            "force_max_N": float(force.max()),
-            "force_final_N": float(force[-1]),
+        return post.force_peak_final(rec, model, "force_roller_z_N", "force") | {
             "deflection_mm": float(d[-1]),
             "stiffness_N_per_mm": float(force[-1] / d[-1]) if d[-1] > 0 else 0.0,
-            "initial_stiffness_N_per_mm": float(k0),
-            "end_slip_mm": end_slip,
-            "interface_slip_max_mm": max(itf.max_slip() for itf in model.interfaces),
+            "initial_stiffness_N_per_mm": float(force[1] / d[1])
+            if len(d) > 1 and d[1] > 0 else 0.0,
+            "end_slip_mm": post.interface_slip_at(model, 0, half),
+            "interface_slip_max_mm": post.interface_slips(model)["skin_core_slip_max_mm"],
             "roller_penetration_max_mm": float(rec.column("max_penetration_mm").max()),
         }
 
     def plots(rec, out: Path) -> list[Path]:
-        from forming.output import plot_curves
-
-        d = rec.column("t") * p.deflection
-        return [plot_curves(Path(out) / "bending_force.png",
-                            [(d, 4 * rec.column("force_roller_z_N"), p.interface, "o-")],
-                            "roller travel [mm]", "roller force [N]",
-                            f"Three-point bending, {p.interface} skins")]
+        return post.force_travel_plot(rec, out, "force_roller_z_N", p.deflection,
+                                      scene.symmetry_copies,
+                                      f"Three-point bending, {p.interface} skins",
+                                      p.interface, "bending_force.png", "roller travel [mm]",
+                                      "roller force [N]")
 
     return Job(scene=scene, steps=StepControl(initial=min(0.02, p.max_step), max=p.max_step),
                newton=NewtonOptions(line_search=p.line_search), metrics=metrics, plots=plots,

@@ -1,67 +1,22 @@
-"""Post-processing shared by the cases.
+"""Pictures of the final state: sections and 3D views, gathered on rank 0.
 
-Integrals of the plastic strain, sections and deformed grids gathered on rank 0 for plots.
+Every function here is collective (it gathers the owned cells of every rank) and
+writes its PNG on rank 0, returning the paths there (an empty list elsewhere).
 """
 
 from __future__ import annotations
 
-import numpy as np
-import ufl
-from dolfinx import fem, mesh  # noqa: I001
-from mpi4py import MPI
+from pathlib import Path
 
+import numpy as np
+from dolfinx import fem, mesh  # noqa: I001
+
+from forming import compat  # noqa: F401  (imports dolfinx the right way)
 from forming.bodies import SolidBody
 
 # DOLFINx -> VTK vertex order of hexahedra and of their quadrilateral faces
 _HEX_TO_VTK = [0, 1, 3, 2, 4, 5, 7, 6]
 _QUAD_TO_POLYGON = [0, 1, 3, 2]
-
-
-class PlasticStrainField:
-    """The volumetric plastic strain as a quadrature function, with its integrals.
-
-    Args:
-        body: A plastic body (its ``plastic`` state is read at each :meth:`update`).
-    """
-
-    def __init__(self, body: SolidBody):
-        if body.plastic is None:
-            raise ValueError(f"body {body.body.name!r} has no plastic state")
-        self.body = body
-        import basix.ufl
-
-        Q = fem.functionspace(body.mesh, basix.ufl.quadrature_element(
-            body.mesh.basix_cell(), value_shape=(), degree=body.quadrature_degree))
-        self.evp = fem.Function(Q, name="evp")
-        self._dofs = Q.dofmap.list[body.cells].ravel()
-        self._forms: dict[str, fem.Form] = {}
-
-    def update(self) -> None:
-        """Copy the converged plastic strain into the quadrature function."""
-        self.evp.x.array[self._dofs] = self.body.plastic.evp
-
-    def integral(self, integrand) -> float:
-        """Integral of a UFL expression over the body (reference volume), all ranks.
-
-        Compiled forms are kept by signature: vary a ``fem.Constant``, not a float, to
-        reuse one.
-        """
-        ufl_form = integrand * self.body.own_dx
-        key = ufl_form.signature()
-        if key not in self._forms:
-            self._forms[key] = fem.form(ufl_form)
-        return self.body.mesh.comm.allreduce(fem.assemble_scalar(self._forms[key]),
-                                             op=MPI.SUM)
-
-    def crushed_volume(self, threshold: float = 0.01, where=None) -> float:
-        """Reference volume where the volumetric plastic strain exceeds ``threshold``."""
-        chi = ufl.conditional(ufl.gt(self.evp, threshold), 1.0, 0.0)
-        return self.integral(chi if where is None else chi * where)
-
-    def mean(self, where) -> float:
-        """Volume average of the plastic strain over the indicator ``where`` (UFL)."""
-        vol = self.integral(where)
-        return self.integral(self.evp * where) / vol if vol > 0 else 0.0
 
 
 def _eval_at(u: fem.Function, points: np.ndarray, cells: np.ndarray) -> np.ndarray:
@@ -148,26 +103,12 @@ def deformed_grid(body: SolidBody, cell_values: dict[str, np.ndarray]):
     return grid
 
 
-_FIELDS: dict[int, PlasticStrainField] = {}
-
-
-def plastic_field(body: SolidBody) -> PlasticStrainField:
-    """The body's plastic-strain field (built once per body), updated to its state."""
-    field = _FIELDS.get(id(body))
-    if field is None or field.body is not body:
-        field = _FIELDS[id(body)] = PlasticStrainField(body)
-    field.update()
-    return field
-
-
 def plastic_strain_pictures(model, out, section: str, title: str, tools_3d=None) -> list:
     """Section and 3D PNGs of the final volumetric plastic strain, with the tools drawn.
 
     The section is the symmetry face ``section``, mirrored. Collective: the files are
     written on rank 0 and returned there (empty elsewhere).
     """
-    from pathlib import Path
-
     from forming.contact.render import render_3d, section_plot
 
     body = model.body
@@ -207,8 +148,6 @@ def shear_angle_picture(model, out, title: str, name: str = "shear_angle.png",
 
     Collective: written on rank 0 and returned there (empty elsewhere).
     """
-    from pathlib import Path
-
     from forming.contact.render import render_3d
 
     body = model.body if body_name is None else model.bodies[body_name]
@@ -221,29 +160,3 @@ def shear_angle_picture(model, out, title: str, name: str = "shear_angle.png",
     lim = max(abs(lo), abs(hi), 1e-6)
     return [render_3d(Path(out) / name, grid, "shear angle [deg]", [], (0, 1, 0, 1, 0, 1), 1.0,
                       title=title, clim=(-lim, lim), view="xy", cmap="coolwarm")]
-
-
-def contact_metrics(rec, model) -> dict[str, float]:
-    """Largest penetration over the run and the tightest tolerance of the scene's pairs."""
-    return {
-        "max_penetration_mm": float(rec.column("max_penetration_mm").max()),
-        "penetration_tolerance_mm": min(c.tolerance for c in model.contacts),
-    }
-
-
-def punch_force_plot(rec, out, stroke: float, title: str, copies: int = 4) -> list:
-    """PNG of the punch force against its stroke (``copies``: symmetry multiplier)."""
-    from pathlib import Path
-
-    from forming.output import plot_curves
-
-    travel = rec.column("t") * stroke
-    force = copies * rec.column("force_punch_z_N")
-    return [plot_curves(Path(out) / "punch_force.png", [(travel, force, "punch force", "o-")],
-                        "stroke [mm]", "punch force [N]", title)]
-
-
-def relative_rms(computed: np.ndarray, reference: np.ndarray) -> float:
-    """RMS of the difference over the RMS of the reference (inf for a zero reference)."""
-    ref = np.sqrt(np.mean(np.square(reference)))
-    return float(np.sqrt(np.mean(np.square(computed - reference))) / ref) if ref > 0 else np.inf

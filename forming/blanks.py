@@ -1,0 +1,130 @@
+"""Blanks for a scene: a core alone, or a sandwich of a core between two fabric skins.
+
+A :class:`Blank` holds the mesh, the bodies and the skin-core interfaces of a blank,
+where its top and bottom faces are, and which bodies the upper and lower tools touch,
+so that a case builds its tooling around it without knowing which kind it is.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from forming.errors import InputError
+from forming.materials.fabric import NonCrimpFabric
+from forming.mesh import MeshData, box
+from forming.scene import Body, Displacement, Interface
+
+SKINS = ("skin_bottom", "skin_top")
+
+
+@dataclass(frozen=True)
+class Blank:
+    """The bodies of a blank and where the tools meet it.
+
+    Attributes:
+        mesh: Its mesh.
+        bodies: Its bodies (the core first).
+        interfaces: Skin-core interfaces (none for a core alone).
+        top: z of its top face [mm].
+        bottom: z of its bottom face [mm].
+        upper: Body whose ``top`` face the upper tools touch.
+        lower: Body whose ``bottom`` face the lower tools touch.
+    """
+
+    mesh: MeshData
+    bodies: tuple[Body, ...]
+    interfaces: tuple[Interface, ...]
+    top: float
+    bottom: float
+    upper: str
+    lower: str
+
+    @property
+    def skins(self) -> tuple[str, ...]:
+        """Names of its fabric skins (empty for a core alone)."""
+        return tuple(b.name for b in self.bodies if isinstance(b.material, NonCrimpFabric))
+
+    def symmetry(self, planes: tuple[tuple[str, str], ...] = (("xmin", "x"), ("ymin", "y"))
+                 ) -> tuple[Displacement, ...]:
+        """Symmetry conditions of every body on the planes ``(face, normal component)``."""
+        return tuple(Displacement(b.name, face, **{axis: 0.0}, reaction=False)
+                     for b in self.bodies for face, axis in planes)
+
+
+def core_blank(mesh: MeshData, core, thickness: float) -> Blank:
+    """A core alone, on the whole mesh, from z = 0 to ``thickness``."""
+    return Blank(mesh, (Body("core", core),), (), thickness, 0.0, "core", "core")
+
+
+def sandwich(mesh: MeshData, core, fabric: NonCrimpFabric, core_thickness: float,
+             plies: int = 1, kind: str = "frictional", friction: float = 0.0,
+             stabilisation: float = 0.0, smoothing: float = 0.0) -> Blank:
+    """A core between a bottom and a top skin on a sandwich mesh (:mod:`forming.sandwich`).
+
+    Args:
+        mesh: The sandwich mesh (volume groups ``core``, ``skin_bottom``, ``skin_top``).
+        core: The core's material.
+        fabric: The skins' material (its thickness is the ply thickness).
+        core_thickness: Core thickness [mm].
+        plies: Plies per skin.
+        kind: ``"frictional"`` or ``"bonded"`` skin-core interfaces.
+        friction: Skin-core Coulomb coefficient.
+        stabilisation: Interface stabilisation (fraction of the penalty).
+        smoothing: Smoothed interface pressure ramp (fraction).
+    """
+    bodies = (Body("core", core, region="core"), *(Body(s, fabric, region=s) for s in SKINS))
+    interfaces = tuple(Interface(f"interface_{side}", "core", f"skin_{side}", kind=kind,
+                                 friction=friction, stabilisation=stabilisation,
+                                 smoothing=smoothing) for side in ("bottom", "top"))
+    top = core_thickness + 2 * plies * fabric.thickness
+    return Blank(mesh, bodies, interfaces, top, 0.0, "skin_top", "skin_bottom")
+
+
+@dataclass(frozen=True)
+class Skins:
+    """Fabric skins on both faces of a core, sliding on it.
+
+    Attributes:
+        fabric: The skins' material (its thickness is the ply thickness).
+        plies: Plies per skin.
+        friction: Skin-core Coulomb coefficient (paper: 0.52).
+        stabilisation: Interface stabilisation (fraction of the penalty).
+        smoothing: Smoothed interface pressure ramp (fraction).
+    """
+
+    fabric: NonCrimpFabric
+    plies: int = 1
+    friction: float = 0.52
+    stabilisation: float = 0.0
+    smoothing: float = 0.0
+
+
+def rectangular_blank(half_x: float, half_y: float, thickness: float, cells: tuple[int, ...],
+                      core, skins: Skins | None = None, grading: float = 1.0) -> Blank:
+    """A quarter of a rectangular blank, ``[0, half_x] x [0, half_y]``: core or sandwich.
+
+    Args:
+        half_x: Half length of the blank along x [mm].
+        half_y: Half length of the blank along y [mm].
+        thickness: Core thickness [mm].
+        cells: Elements along x, y and through the core.
+        core: The core's material.
+        skins: Skins on both faces; None: the core alone.
+        grading: In-plane element growth away from the centre (core alone only).
+
+    Raises:
+        InputError: With skins, ``cells`` does not give square elements in plane.
+    """
+    if skins is None:
+        mesh = box((half_x, half_y, thickness), tuple(cells), grading=(grading, grading, 1.0))
+        return core_blank(mesh, core, thickness)
+    element = half_x / cells[0]
+    if round(half_y / element) != cells[1]:
+        raise InputError("cells", f"with skins the in-plane mesh is square: got {cells}")
+    from forming.sandwich import Outline, sandwich_blank
+
+    mesh = sandwich_blank(Outline.rectangle(half_x, half_y), core_thickness=thickness,
+                          skin_thickness=skins.fabric.thickness, plies=skins.plies,
+                          element_size=element, core_layers=cells[2])
+    return sandwich(mesh, core, skins.fabric, thickness, skins.plies, friction=skins.friction,
+                    stabilisation=skins.stabilisation, smoothing=skins.smoothing)
