@@ -18,6 +18,7 @@ from forming.errors import InputError
 from forming.materials import kernels
 from forming.materials.curves import CompressionCurve, pchip_slopes
 from forming.materials.elasticity import Elasticity
+from forming.materials.kernels import N_PROPS, PROP_ALPHA, PROP_PT, PROP_VISC
 
 log = logging.getLogger(__name__)
 
@@ -99,11 +100,11 @@ def evaluate(
     ys, ds = k.ys, k.ds
     if frozen:  # strengths out of reach: every update stays on the elastic trial branch
         props = props.copy()
-        props[1], props[2] = _OUT_OF_REACH, 0.0
+        props[PROP_PT], props[PROP_VISC] = _OUT_OF_REACH, 0.0
         ys, ds = np.full_like(k.ys, _OUT_OF_REACH), np.zeros_like(k.ds)
     elif eta > 0.0 and load_increment > 0.0:
         props = props.copy()
-        props[2] = eta / load_increment
+        props[PROP_VISC] = eta / load_increment
     nbad, worst = kernels.foam_points(
         cm, ep_in, evp_in, k.cel, k.measure, props, k.xs, ys, ds, s, d, ep_out, evp_out,
         want_tangent, h,
@@ -154,7 +155,7 @@ class ElasticSolid:
         empty = np.zeros(1)
         return KernelData(
             self.elasticity.stiffness(), _measure(self.strain_measure), False,
-            np.zeros(2), empty, empty, empty,
+            np.zeros(N_PROPS), empty, empty, empty,
         )
 
     def kernel_data(self) -> KernelData:
@@ -281,9 +282,11 @@ class CrushableFoam:
     @cached_property
     def _data(self) -> KernelData:
         h = self.hardening
+        props = np.zeros(N_PROPS)  # PROP_VISC: 0, set per increment by evaluate()
+        props[PROP_ALPHA], props[PROP_PT] = h.alpha, h.pt
         return KernelData(
             self.elasticity.stiffness(), _measure(self.strain_measure), True,
-            np.array([h.alpha, h.pt, 0.0]), h.evp, h.pc, h.slope,
+            props, h.evp, h.pc, h.slope,
         )
 
     def kernel_data(self) -> KernelData:

@@ -62,6 +62,7 @@ from __future__ import annotations
 from .common import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_MAP
 from .curve import hermite_eval
 from .drivers import elastic_points, foam_points
+from .foam import N_PROPS, PROP_ALPHA, PROP_PT, PROP_VISC
 from .linalg import eig_sym3
 from .mandel import SQRT2, mandel_rotation
 from .strain import MEASURE_BIOT, MEASURE_BIOT_HENCKY, MEASURE_HENCKY, strain_f, strain_theta
@@ -70,6 +71,10 @@ __all__ = [
     "MEASURE_BIOT",
     "MEASURE_BIOT_HENCKY",
     "MEASURE_HENCKY",
+    "N_PROPS",
+    "PROP_ALPHA",
+    "PROP_PT",
+    "PROP_VISC",
     "SQRT2",
     "STATUS_INVERTED",
     "STATUS_OK",

@@ -210,7 +210,8 @@ def foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
         evp_n: (n,) converged volumetric plastic strain (compression positive).
         cel: (6, 6) Mandel elastic stiffness in the material frame.
         measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
-        props: [alpha, pt, eta / dt] (the last 0 without viscous regularisation).
+        props: (N_PROPS,) parameters: ``PROP_ALPHA`` alpha, ``PROP_PT`` pt,
+            ``PROP_VISC`` eta / dt (0 without viscous regularisation).
         xs: Hardening table abscissae (volumetric plastic strain).
         ys: Hardening table values pc [MPa].
         ds: Hermite slopes of the table.

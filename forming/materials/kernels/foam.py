@@ -18,6 +18,13 @@ from .linalg import _solve6
 from .mandel import _ZERO6, _axpy6, _dot6, _mandel_rotation_into, _mtv6, _mul6, _mv6, _rtcr, _sub6
 from .strain import _kinematics
 
+# Indices into ``props``, the foam's scalar parameters (built by
+# :meth:`forming.materials.solids.CrushableFoam.kernel_data`).
+PROP_ALPHA = 0  # shape factor alpha of the yield ellipse
+PROP_PT = 1  # hydrostatic tension strength pt [MPa]
+PROP_VISC = 2  # eta / dt of the viscous regularisation (0: rate-independent)
+N_PROPS = 3
+
 
 @_inner
 def _foam_yield(sig, pc, pt, alpha):
@@ -175,7 +182,8 @@ def _foam_update(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_sl
         pc_n: Compression strength at ``evp_n``.
         cel: (6, 6) Mandel elastic stiffness in the material frame.
         measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
-        props: [alpha, pt, eta / dt] (the last 0 without viscous regularisation).
+        props: (N_PROPS,) parameters: ``PROP_ALPHA`` alpha, ``PROP_PT`` pt,
+            ``PROP_VISC`` eta / dt (0 without viscous regularisation).
         xs: Hardening table abscissae.
         ys: Hardening table values.
         ds: Hardening table slopes.
@@ -198,9 +206,9 @@ def _foam_update(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_sl
     _rtcr(rot, cel, cr, c_eig, 6)
     ep_eig = _mtv6(rot, ep_old)
     t_tr = _mv6(c_eig, _sub6(e_eig, ep_eig))
-    alpha = props[0]
-    pt = props[1]
-    visc = props[2]
+    alpha = props[PROP_ALPHA]
+    pt = props[PROP_PT]
+    visc = props[PROP_VISC]
     f_tr = _foam_yield(_mul6(k_fac, t_tr), pc_n, pt, alpha)
     scale = pc_n + pt
     if f_tr <= 1e-12 * scale:
