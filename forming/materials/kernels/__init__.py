@@ -49,7 +49,9 @@ Modules:
     * :mod:`.foam_bound`: the lower bound that skips solves in the bracketing.
     * :mod:`.foam`: yield function, return mapping and the foam stress update.
     * :mod:`.elastic`: the elastic stress update.
-    * :mod:`.drivers`: the point loops with the difference tangent (entry points).
+    * :mod:`.tangent`: the perturbed tensors and columns of the difference tangent.
+    * :mod:`.drivers`: the point loops (entry points ``elastic_points`` and
+      ``foam_points``).
 
 Caching: numba's on-disk cache of a function is invalidated when the file that
 defines it changes, not when a function it calls from another module does. After
