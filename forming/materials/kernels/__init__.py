@@ -50,8 +50,9 @@ Modules:
     * :mod:`.foam`: yield function, return mapping and the foam stress update.
     * :mod:`.elastic`: the elastic stress update.
     * :mod:`.tangent`: the perturbed tensors and columns of the difference tangent.
-    * :mod:`.drivers`: the point loops (entry points ``elastic_points`` and
-      ``foam_points``).
+    * :mod:`.drivers`: the point loops (entry points ``elastic_points``,
+      ``foam_points``, and ``foam_frozen_points``: the foam elastic about its
+      plastic state, no return mapping).
 
 Caching: numba's on-disk cache of a function is invalidated when the file that
 defines it changes, not when a function it calls from another module does. After
@@ -63,7 +64,7 @@ from __future__ import annotations
 
 from .common import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_MAP
 from .curve import hermite_eval
-from .drivers import elastic_points, foam_points
+from .drivers import elastic_points, foam_frozen_points, foam_points
 from .foam import N_PROPS, PROP_ALPHA, PROP_PT, PROP_VISC
 from .linalg import eig_sym3
 from .mandel import SQRT2, mandel_rotation
@@ -83,6 +84,7 @@ __all__ = [
     "STATUS_RETURN_MAP",
     "eig_sym3",
     "elastic_points",
+    "foam_frozen_points",
     "foam_points",
     "hermite_eval",
     "mandel_rotation",

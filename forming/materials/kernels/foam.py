@@ -4,7 +4,8 @@ The yield function (:func:`_foam_yield`) is written in the rotated Cauchy stress
 the flow is radial in it, so for a return of size ``mu`` the stress follows from one
 6x6 linear solve (:func:`_rm_phi`). :func:`_return_mapping` finds the smallest root
 ``mu`` by geometric bracketing and Illinois regula falsi, and :func:`_foam_update`
-is the whole update at one point: elastic trial, yield check, return.
+is the whole update at one point: elastic trial, yield check, return;
+:func:`_foam_frozen_update` stops at the elastic trial (plastic state frozen).
 """
 
 from __future__ import annotations
@@ -170,6 +171,35 @@ def _return_mapping(f_tr, tol, bound, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds,
 
 
 @_inner
+def _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig):
+    """Elastic trial state of the foam at one point, about the plastic strain ``ep_old``.
+
+    Args:
+        c: Eigenvalues of C (3-tuple).
+        q: (3, 3) eigenvectors of C (columns).
+        ep_old: Converged plastic strain (global Mandel 6-tuple).
+        cel: (6, 6) Mandel elastic stiffness in the material frame.
+        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
+        rot: (6, 6) output: Mandel rotation of the eigenframe.
+        cr: (6, 6) scratch.
+        c_eig: (6, 6) output: stiffness in the eigenframe.
+
+    Returns:
+        (C positive definite, S-scalings, sigma-scalings, plastic strain and trial
+        stress T in the eigenframe), the last four as Mandel 6-tuples (all zero, and
+        ``rot``, ``c_eig`` unset, if C is not positive definite).
+    """
+    ok, e_eig, s_fac, k_fac = _kinematics(c, measure, True)
+    if not ok:
+        return False, s_fac, k_fac, _ZERO6, _ZERO6
+    _mandel_rotation_into(q, rot)
+    _rtcr(rot, cel, cr, c_eig, 6)
+    ep_eig = _mtv6(rot, ep_old)
+    t_tr = _mv6(c_eig, _sub6(e_eig, ep_eig))
+    return True, s_fac, k_fac, ep_eig, t_tr
+
+
+@_inner
 def _foam_update(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_slope, rot, cr,
                  c_eig, lu):
     """Crushable-foam stress update at one point.
@@ -199,13 +229,9 @@ def _foam_update(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_sl
         6-tuples.
     """
     ep_old = (ep_n[0], ep_n[1], ep_n[2], ep_n[3], ep_n[4], ep_n[5])
-    ok, e_eig, s_fac, k_fac = _kinematics(c, measure, True)
+    ok, s_fac, k_fac, ep_eig, t_tr = _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig)
     if not ok:
         return STATUS_INVERTED, _ZERO6, ep_old, evp_n
-    _mandel_rotation_into(q, rot)
-    _rtcr(rot, cel, cr, c_eig, 6)
-    ep_eig = _mtv6(rot, ep_old)
-    t_tr = _mv6(c_eig, _sub6(e_eig, ep_eig))
     alpha = props[PROP_ALPHA]
     pt = props[PROP_PT]
     visc = props[PROP_VISC]
@@ -221,3 +247,36 @@ def _foam_update(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_sl
     ep_new = _mv6(rot, _axpy6(ep_eig, mu, sig))
     evp = evp_n - mu * (sig[0] + sig[1] + sig[2])
     return STATUS_OK, _mv6(rot, _mul6(s_fac, t)), ep_new, evp
+
+
+@_inner
+def _foam_frozen_update(c, q, ep_n, cel, measure, rot, cr, c_eig):
+    """Foam stress at one point with its plastic state frozen: the elastic trial stress.
+
+    No yield check and no return mapping: the stress of elastic unloading (or
+    reloading) about the converged plastic strain ``ep_n``, which is the foam's
+    stress whenever the trial state is inside the yield surface. A trial state whose
+    rotated Cauchy stress is not finite fails with ``STATUS_RETURN_MAP``, as the
+    return mapping it would enter in :func:`_foam_update` does.
+
+    Args:
+        c: Eigenvalues of C (3-tuple).
+        q: (3, 3) eigenvectors of C (columns).
+        ep_n: (6,) converged plastic strain (global Mandel).
+        cel: (6, 6) Mandel elastic stiffness in the material frame.
+        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
+        rot: (6, 6) scratch (Mandel rotation of the eigenframe).
+        cr: (6, 6) scratch.
+        c_eig: (6, 6) scratch (stiffness in the eigenframe).
+
+    Returns:
+        (status, S as a Mandel 6-tuple in the global frame, zero on failure).
+    """
+    ep_old = (ep_n[0], ep_n[1], ep_n[2], ep_n[3], ep_n[4], ep_n[5])
+    ok, s_fac, k_fac, _ep, t_tr = _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig)
+    if not ok:
+        return STATUS_INVERTED, _ZERO6
+    sig = _mul6(k_fac, t_tr)
+    if not math.isfinite(_dot6(sig, sig)):
+        return STATUS_RETURN_MAP, _ZERO6
+    return STATUS_OK, _mv6(rot, _mul6(s_fac, t_tr))
