@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import io
 import subprocess
 import sys
+import tarfile
 import tempfile
 import time
 from pathlib import Path
@@ -24,16 +26,34 @@ from forming.materials import solids
 from forming.materials.library import honeycomb_core
 
 ROOT = Path(__file__).resolve().parent.parent
-KERNELS = "forming/materials/kernels.py"
+KERNELS = "forming/materials/kernels"  # a package; a single ``kernels.py`` up to 76612de
+
+
+def _git(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(["git", *args], cwd=ROOT, capture_output=True)
 
 
 def load_old_kernels(rev: str, tmp: Path):
-    """Import the kernels module of git revision ``rev`` under the name ``kernels_old``."""
-    src = subprocess.run(["git", "show", f"{rev}:{KERNELS}"], cwd=ROOT, check=True,
-                         capture_output=True, text=True).stdout
-    path = tmp / "kernels_old.py"
-    path.write_text(src)
-    spec = importlib.util.spec_from_file_location("kernels_old", path)
+    """Import the kernels of git revision ``rev`` under the name ``kernels_old``.
+
+    The kernels are a package (imported from a ``git archive`` of its folder, so its
+    relative imports stay within the old revision) or, in older revisions, a single
+    module ``kernels.py``.
+    """
+    if _git("cat-file", "-t", f"{rev}:{KERNELS}").stdout.strip() == b"tree":
+        tar = _git("archive", "--format=tar", rev, KERNELS)
+        tar.check_returncode()
+        with tarfile.open(fileobj=io.BytesIO(tar.stdout)) as archive:
+            archive.extractall(tmp, filter="data")
+        package = tmp / KERNELS
+        spec = importlib.util.spec_from_file_location(
+            "kernels_old", package / "__init__.py", submodule_search_locations=[str(package)])
+    else:
+        show = _git("show", f"{rev}:{KERNELS}.py")
+        show.check_returncode()
+        path = tmp / "kernels_old.py"
+        path.write_bytes(show.stdout)
+        spec = importlib.util.spec_from_file_location("kernels_old", path)
     module = importlib.util.module_from_spec(spec)
     sys.modules["kernels_old"] = module
     spec.loader.exec_module(module)

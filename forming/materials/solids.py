@@ -18,12 +18,11 @@ from forming.errors import InputError
 from forming.materials import kernels
 from forming.materials.curves import CompressionCurve, pchip_slopes
 from forming.materials.elasticity import Elasticity
+from forming.materials.kernels import N_PROPS, PROP_ALPHA, PROP_PT, PROP_VISC
 
 log = logging.getLogger(__name__)
 
 StrainMeasure = Literal["hencky", "biot", "biot-hencky"]
-# a strength no stress reaches: evaluates a foam on its elastic branch (``frozen``)
-_OUT_OF_REACH = 1e30
 
 _MEASURES = {
     "hencky": kernels.MEASURE_HENCKY,
@@ -81,7 +80,9 @@ def evaluate(
     ``load_increment`` (the step in the load parameter) scales the viscous
     regularisation of a foam with ``viscosity > 0``; it is ignored otherwise.
     ``frozen`` evaluates a plastic material elastically about its plastic state ``ep_n``
-    (the stiffness of elastic unloading, which sets the explicit stable time step).
+    (the stiffness of elastic unloading, which sets the explicit stable time step):
+    :func:`~forming.materials.kernels.foam_frozen_points`, no return mapping, and
+    ``ep``, ``evp`` returned unchanged.
     """
     k = material.kernel_data()
     n = cmats.shape[0]
@@ -94,18 +95,18 @@ def evaluate(
     ep_in = np.zeros((n, 6)) if ep_n is None else np.ascontiguousarray(ep_n)
     evp_in = np.zeros(n) if evp_n is None else np.ascontiguousarray(evp_n)
     ep_out, evp_out = ep_in.copy(), evp_in.copy()
+    if frozen:  # elastic about the plastic state: no return mapping, state unchanged
+        nbad, worst = kernels.foam_frozen_points(cm, ep_in, k.cel, k.measure, s, d,
+                                                 want_tangent, h)
+        return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad),
+                           int(worst))
     props = k.props
     eta = getattr(material, "viscosity", 0.0)
-    ys, ds = k.ys, k.ds
-    if frozen:  # strengths out of reach: every update stays on the elastic trial branch
+    if eta > 0.0 and load_increment > 0.0:
         props = props.copy()
-        props[1], props[2] = _OUT_OF_REACH, 0.0
-        ys, ds = np.full_like(k.ys, _OUT_OF_REACH), np.zeros_like(k.ds)
-    elif eta > 0.0 and load_increment > 0.0:
-        props = props.copy()
-        props[2] = eta / load_increment
+        props[PROP_VISC] = eta / load_increment
     nbad, worst = kernels.foam_points(
-        cm, ep_in, evp_in, k.cel, k.measure, props, k.xs, ys, ds, s, d, ep_out, evp_out,
+        cm, ep_in, evp_in, k.cel, k.measure, props, k.xs, k.ys, k.ds, s, d, ep_out, evp_out,
         want_tangent, h,
     )
     return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad), int(worst))
@@ -154,7 +155,7 @@ class ElasticSolid:
         empty = np.zeros(1)
         return KernelData(
             self.elasticity.stiffness(), _measure(self.strain_measure), False,
-            np.zeros(2), empty, empty, empty,
+            np.zeros(N_PROPS), empty, empty, empty,
         )
 
     def kernel_data(self) -> KernelData:
@@ -281,9 +282,11 @@ class CrushableFoam:
     @cached_property
     def _data(self) -> KernelData:
         h = self.hardening
+        props = np.zeros(N_PROPS)  # PROP_VISC: 0, set per increment by evaluate()
+        props[PROP_ALPHA], props[PROP_PT] = h.alpha, h.pt
         return KernelData(
             self.elasticity.stiffness(), _measure(self.strain_measure), True,
-            np.array([h.alpha, h.pt, 0.0]), h.evp, h.pc, h.slope,
+            props, h.evp, h.pc, h.slope,
         )
 
     def kernel_data(self) -> KernelData:

@@ -1,0 +1,205 @@
+"""Point drivers: the stress and difference tangent of every quadrature point.
+
+For each point, :func:`.tangent._point_tensors` builds C and its 12 perturbations,
+which are diagonalised as one batch (:func:`.linalg.eig_sym3`) and sent through the
+stress update; :mod:`.tangent` forms the difference quotients. The entry points
+:func:`elastic_points`, :func:`foam_points` and :func:`foam_frozen_points` (the
+foam elastic about its plastic state) allocate the scratch arrays once per call
+(:func:`_new_work`) and run the allocation-free loop bodies.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .common import STATUS_OK, _inner
+from .curve import _hermite_slope_bound, hermite_eval
+from .elastic import _elastic_update
+from .foam import _foam_frozen_update, _foam_update
+from .linalg import eig_sym3
+from .tangent import _NUPD, _foam_tangent, _point_tensors, _tangent_column
+
+
+@numba.njit(cache=True)
+def _new_work():
+    """Scratch arrays of the point loops.
+
+    Returns:
+        (C of each update, diagonalised C, eigenvectors, Jacobi scratch (two flags,
+        cosine and sine), Mandel rotation, ``cel @ rot``, eigenframe stiffness,
+        augmented system of the return mapping, stress of each update, their
+        success).
+    """
+    return (np.empty((_NUPD, 3, 3)), np.empty((_NUPD, 3, 3)), np.empty((_NUPD, 3, 3)),
+            np.empty(_NUPD, dtype=np.bool_), np.empty(_NUPD, dtype=np.bool_),
+            np.empty((_NUPD, 2)), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)),
+            np.empty((6, 7)), np.empty((_NUPD, 6)), np.empty(_NUPD, dtype=np.bool_))
+
+
+@_inner
+def _elastic_points(cmats, cel, measure, s_out, d_out, want_tangent, h_rel, work):
+    """Body of :func:`elastic_points`, with its scratch arrays ``work``."""
+    cs, ms, qs, active, turn, rcs, rot, cr, c_eig, _lu, s_upd, _ok = work
+    nupd = _NUPD if want_tangent else 1
+    nbad = 0
+    worst = 0
+    for ip in range(cmats.shape[0]):
+        h = _point_tensors(cmats, ip, h_rel, nupd, cs)
+        eig_sym3(cs, nupd, ms, qs, active, turn, rcs)
+        for u in range(nupd):
+            c = (ms[u, 0, 0], ms[u, 1, 1], ms[u, 2, 2])
+            st, s = _elastic_update(c, qs[u], cel, measure, rot, cr, c_eig)
+            if u == 0 and st != STATUS_OK:
+                nbad += 1
+                worst = max(worst, st)
+                break
+            for i in range(6):
+                s_upd[u, i] = s[i]
+        else:
+            for i in range(6):
+                s_out[ip, i] = s_upd[0, i]
+            for j in range(nupd // 2):
+                _tangent_column(d_out, ip, j, s_upd[0], s_upd[2 * j + 1], s_upd[2 * j + 2],
+                                True, True, h)
+    return nbad, worst
+
+
+@numba.njit(cache=True)
+def elastic_points(cmats, cel, measure, s_out, d_out, want_tangent, h_rel):
+    """Stress and tangent of the elastic solid at every point (no state, no return map).
+
+    Args:
+        cmats: (n, 9) right Cauchy-Green tensors, row-major.
+        cel: (6, 6) Mandel elastic stiffness in the material frame.
+        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
+        s_out: (n, 6) second Piola-Kirchhoff stress (Mandel).
+        d_out: (n, 36) tangent dS/dE_GL (Mandel, row-major).
+        want_tangent: Compute ``d_out``.
+        h_rel: Perturbation size in Green-Lagrange strain.
+
+    Returns:
+        (number of points with a non-zero status, worst status).
+    """
+    return _elastic_points(cmats, cel, measure, s_out, d_out, want_tangent, h_rel,
+                           _new_work())
+
+
+@_inner
+def _foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
+                 s_out, d_out, ep_out, evp_out, want_tangent, h_rel, work):
+    """Body of :func:`foam_points`, with its scratch arrays ``work``."""
+    cs, ms, qs, active, turn, rcs, rot, cr, c_eig, lu, s_upd, ok_upd = work
+    pc_slope = _hermite_slope_bound(xs, ys, ds)
+    nupd = _NUPD if want_tangent else 1
+    nbad = 0
+    worst = 0
+    for ip in range(cmats.shape[0]):
+        h = _point_tensors(cmats, ip, h_rel, nupd, cs)
+        eig_sym3(cs, nupd, ms, qs, active, turn, rcs)
+        epn = ep_n[ip]
+        evpn = evp_n[ip]
+        pc_n, _h = hermite_eval(evpn, xs, ys, ds)
+        for u in range(nupd):
+            c = (ms[u, 0, 0], ms[u, 1, 1], ms[u, 2, 2])
+            st, s, ep, evp = _foam_update(c, qs[u], epn, evpn, pc_n, cel, measure, props, xs, ys,
+                                          ds, pc_slope, rot, cr, c_eig, lu)
+            if u == 0:
+                if st != STATUS_OK:
+                    nbad += 1
+                    worst = max(worst, st)
+                    break
+                for i in range(6):
+                    ep_out[ip, i] = ep[i]
+                evp_out[ip] = evp
+            ok_upd[u] = st == STATUS_OK
+            for i in range(6):
+                s_upd[u, i] = s[i]
+        else:
+            for i in range(6):
+                s_out[ip, i] = s_upd[0, i]
+            _foam_tangent(d_out, ip, nupd, s_upd, ok_upd, ms, qs, cel, measure, rot, cr, c_eig, h)
+    return nbad, worst
+
+
+@numba.njit(cache=True)
+def foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
+                s_out, d_out, ep_out, evp_out, want_tangent, h_rel):
+    """Stress, tangent and trial state of the crushable foam at every point.
+
+    Args:
+        cmats: (n, 9) right Cauchy-Green tensors, row-major.
+        ep_n: (n, 6) converged plastic strain.
+        evp_n: (n,) converged volumetric plastic strain (compression positive).
+        cel: (6, 6) Mandel elastic stiffness in the material frame.
+        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
+        props: (N_PROPS,) parameters: ``PROP_ALPHA`` alpha, ``PROP_PT`` pt,
+            ``PROP_VISC`` eta / dt (0 without viscous regularisation).
+        xs: Hardening table abscissae (volumetric plastic strain).
+        ys: Hardening table values pc [MPa].
+        ds: Hermite slopes of the table.
+        s_out: (n, 6) second Piola-Kirchhoff stress (Mandel).
+        d_out: (n, 36) tangent dS/dE_GL (Mandel, row-major).
+        ep_out: (n, 6) new plastic strain (a trial, accepted on convergence).
+        evp_out: (n,) new volumetric plastic strain.
+        want_tangent: Compute ``d_out``.
+        h_rel: Perturbation size in Green-Lagrange strain.
+
+    Returns:
+        (number of points with a non-zero status, worst status).
+    """
+    return _foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds, s_out, d_out,
+                        ep_out, evp_out, want_tangent, h_rel, _new_work())
+
+
+@_inner
+def _foam_frozen_points(cmats, ep_n, cel, measure, s_out, d_out, want_tangent, h_rel, work):
+    """Body of :func:`foam_frozen_points`, with its scratch arrays ``work``."""
+    cs, ms, qs, active, turn, rcs, rot, cr, c_eig, _lu, s_upd, ok_upd = work
+    nupd = _NUPD if want_tangent else 1
+    nbad = 0
+    worst = 0
+    for ip in range(cmats.shape[0]):
+        h = _point_tensors(cmats, ip, h_rel, nupd, cs)
+        eig_sym3(cs, nupd, ms, qs, active, turn, rcs)
+        epn = ep_n[ip]
+        for u in range(nupd):
+            c = (ms[u, 0, 0], ms[u, 1, 1], ms[u, 2, 2])
+            st, s = _foam_frozen_update(c, qs[u], epn, cel, measure, rot, cr, c_eig)
+            if u == 0 and st != STATUS_OK:
+                nbad += 1
+                worst = max(worst, st)
+                break
+            ok_upd[u] = st == STATUS_OK
+            for i in range(6):
+                s_upd[u, i] = s[i]
+        else:
+            for i in range(6):
+                s_out[ip, i] = s_upd[0, i]
+            _foam_tangent(d_out, ip, nupd, s_upd, ok_upd, ms, qs, cel, measure, rot, cr, c_eig, h)
+    return nbad, worst
+
+
+@numba.njit(cache=True)
+def foam_frozen_points(cmats, ep_n, cel, measure, s_out, d_out, want_tangent, h_rel):
+    """Stress and tangent of the crushable foam with its plastic state frozen.
+
+    Every update is elastic about the converged plastic strain ``ep_n`` (no yield
+    check, no return mapping): the response of elastic unloading, whose stiffness
+    sets the explicit stable time step. The plastic state is not changed.
+
+    Args:
+        cmats: (n, 9) right Cauchy-Green tensors, row-major.
+        ep_n: (n, 6) converged plastic strain.
+        cel: (6, 6) Mandel elastic stiffness in the material frame.
+        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
+        s_out: (n, 6) second Piola-Kirchhoff stress (Mandel).
+        d_out: (n, 36) tangent dS/dE_GL (Mandel, row-major).
+        want_tangent: Compute ``d_out``.
+        h_rel: Perturbation size in Green-Lagrange strain.
+
+    Returns:
+        (number of points with a non-zero status, worst status).
+    """
+    return _foam_frozen_points(cmats, ep_n, cel, measure, s_out, d_out, want_tangent, h_rel,
+                               _new_work())

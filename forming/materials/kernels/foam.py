@@ -1,0 +1,282 @@
+"""Crushable-foam stress update: yield function, return mapping and the point update.
+
+The yield function (:func:`_foam_yield`) is written in the rotated Cauchy stress;
+the flow is radial in it, so for a return of size ``mu`` the stress follows from one
+6x6 linear solve (:func:`_rm_phi`). :func:`_return_mapping` finds the smallest root
+``mu`` by geometric bracketing and Illinois regula falsi, and :func:`_foam_update`
+is the whole update at one point: elastic trial, yield check, return;
+:func:`_foam_frozen_update` stops at the elastic trial (plastic state frozen).
+"""
+
+from __future__ import annotations
+
+import math
+
+from .common import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_MAP, _inner
+from .curve import hermite_eval
+from .foam_bound import _phi_bound_data, _phi_surely_positive
+from .linalg import _solve6
+from .mandel import _ZERO6, _axpy6, _dot6, _mandel_rotation_into, _mtv6, _mul6, _mv6, _rtcr, _sub6
+from .strain import _kinematics
+
+# Indices into ``props``, the foam's scalar parameters (built by
+# :meth:`forming.materials.solids.CrushableFoam.kernel_data`).
+PROP_ALPHA = 0  # shape factor alpha of the yield ellipse
+PROP_PT = 1  # hydrostatic tension strength pt [MPa]
+PROP_VISC = 2  # eta / dt of the viscous regularisation (0: rate-independent)
+N_PROPS = 3
+
+
+@_inner
+def _foam_yield(sig, pc, pt, alpha):
+    """Crushable-foam yield value for a rotated Cauchy stress, p > 0 in compression.
+
+    Args:
+        sig: Rotated Cauchy stress (Mandel 6-tuple).
+        pc: Hydrostatic compression strength.
+        pt: Hydrostatic tension strength.
+        alpha: Shape factor of the yield ellipse.
+
+    Returns:
+        The yield value (positive outside the surface).
+    """
+    tr = sig[0] + sig[1] + sig[2]
+    p = -tr / 3.0
+    q2 = 0.0
+    for i in range(6):
+        d = sig[i] - (tr / 3.0 if i < 3 else 0.0)
+        q2 += d * d
+    q2 *= 1.5
+    p0 = 0.5 * (pc - pt)
+    return math.sqrt(q2 + alpha * alpha * (p - p0) ** 2) - 0.5 * alpha * (pc + pt)
+
+
+@_inner
+def _rm_phi(mu, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds, pt, alpha, visc):
+    """Yield value after a return of size ``mu``.
+
+    The flow is radial in the rotated Cauchy stress (``dg m = mu sigma``), so for a
+    given ``mu`` the update ``T = T_tr - mu C K T`` is linear:
+    ``T = (I + mu C K)^-1 T_tr`` with ``K = diag(kappa)``. With viscous regularisation
+    (``visc = eta / dt > 0``, Duvaut-Lions/Perzyna overstress) the value is
+    ``f - visc * dgamma`` with ``dgamma = 2/3 mu g``, ``g = sqrt(3/2 sigma : sigma)``.
+
+    Args:
+        mu: Return size.
+        c_eig: (6, 6) elastic stiffness in the eigenframe.
+        k_fac: Sigma-scalings ``kappa`` (6-tuple).
+        t_tr: Trial stress T (6-tuple).
+        lu: (6, 7) scratch for the linear solve.
+        evp_n: Converged volumetric plastic strain.
+        xs: Hardening table abscissae.
+        ys: Hardening table values.
+        ds: Hardening table slopes.
+        pt: Hydrostatic tension strength.
+        alpha: Shape factor of the yield ellipse.
+        visc: ``eta / dt`` (no regularisation unless positive).
+
+    Returns:
+        (yield value, stress T, rotated Cauchy stress), the last two as 6-tuples.
+    """
+    for i in range(6):
+        for j in range(6):
+            lu[i, j] = mu * c_eig[i, j] * k_fac[j]
+        lu[i, i] += 1.0
+        lu[i, 6] = t_tr[i]
+    _solve6(lu)
+    t = (lu[0, 6], lu[1, 6], lu[2, 6], lu[3, 6], lu[4, 6], lu[5, 6])
+    sig = _mul6(k_fac, t)
+    evp = evp_n - mu * (sig[0] + sig[1] + sig[2])
+    pc, _h = hermite_eval(evp, xs, ys, ds)
+    f = _foam_yield(sig, pc, pt, alpha)
+    if visc > 0.0:
+        f -= visc * (2.0 / 3.0) * mu * math.sqrt(1.5 * _dot6(sig, sig))
+    return f, t, sig
+
+
+@_inner
+def _return_mapping(f_tr, tol, bound, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds, pt, alpha,
+                    visc):
+    """Smallest root ``mu > 0`` of ``phi(mu) = f(sigma(mu), pc(evp(mu)))``.
+
+    Bracketed by geometric search from ``phi(0) = f_tr > 0`` (at most 80 doublings
+    of the first trial), then Illinois regula falsi (at most 200 steps). The search
+    only needs the sign of ``phi`` until it turns, so trials that
+    :func:`_phi_surely_positive` certifies skip the solve; the last positive trial
+    is evaluated when the bracket closes, as it is the Illinois start.
+
+    Args:
+        f_tr: Trial yield value (positive).
+        tol: Tolerance on ``|phi|``.
+        bound: Constants from :func:`_phi_bound_data`.
+        c_eig: (6, 6) elastic stiffness in the eigenframe.
+        k_fac: Sigma-scalings ``kappa`` (6-tuple).
+        t_tr: Trial stress T (6-tuple).
+        lu: (6, 7) scratch for the linear solves.
+        evp_n: Converged volumetric plastic strain.
+        xs: Hardening table abscissae.
+        ys: Hardening table values.
+        ds: Hardening table slopes.
+        pt: Hydrostatic tension strength.
+        alpha: Shape factor of the yield ellipse.
+        visc: ``eta / dt`` (no regularisation unless positive).
+
+    Returns:
+        (converged, mu, stress T, rotated Cauchy stress) at the root, the last two
+        as 6-tuples.
+    """
+    cmax = 0.0
+    for i in range(6):
+        cmax = max(cmax, c_eig[i, i] * k_fac[i])
+    mu_lo, f_lo = 0.0, f_tr
+    mu_hi = 1e-4 / cmax
+    f_hi = f_tr
+    # whether f_lo and f_hi are the values at mu_lo and mu_hi (not just known positive)
+    lo_known = hi_known = True
+    t = sig = _ZERO6
+    for doublings in range(81):
+        if doublings > 0:
+            mu_lo, f_lo, lo_known = mu_hi, f_hi, hi_known
+            mu_hi *= 2.0
+        if _phi_surely_positive(mu_hi, bound):
+            hi_known = False
+            continue
+        f_hi, t, sig = _rm_phi(mu_hi, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds, pt, alpha, visc)
+        hi_known = True
+        if f_hi <= 0.0:
+            break
+    else:
+        return False, mu_hi, t, sig
+    if not lo_known:
+        f_lo, t, sig = _rm_phi(mu_lo, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds, pt, alpha, visc)
+    side = 0
+    for _it in range(200):
+        mu = (mu_lo * f_hi - mu_hi * f_lo) / (f_hi - f_lo)
+        if not (mu_lo < mu < mu_hi):
+            mu = 0.5 * (mu_lo + mu_hi)
+        fm, t, sig = _rm_phi(mu, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds, pt, alpha, visc)
+        if abs(fm) < tol or (mu_hi - mu_lo) < 1e-15 * mu_hi:
+            return True, mu, t, sig
+        if fm > 0.0:
+            mu_lo, f_lo = mu, fm
+            if side == 1:
+                f_hi *= 0.5
+            side = 1
+        else:
+            mu_hi, f_hi = mu, fm
+            if side == -1:
+                f_lo *= 0.5
+            side = -1
+    return False, mu_hi, t, sig
+
+
+@_inner
+def _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig):
+    """Elastic trial state of the foam at one point, about the plastic strain ``ep_old``.
+
+    Args:
+        c: Eigenvalues of C (3-tuple).
+        q: (3, 3) eigenvectors of C (columns).
+        ep_old: Converged plastic strain (global Mandel 6-tuple).
+        cel: (6, 6) Mandel elastic stiffness in the material frame.
+        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
+        rot: (6, 6) output: Mandel rotation of the eigenframe.
+        cr: (6, 6) scratch.
+        c_eig: (6, 6) output: stiffness in the eigenframe.
+
+    Returns:
+        (C positive definite, S-scalings, sigma-scalings, plastic strain and trial
+        stress T in the eigenframe), the last four as Mandel 6-tuples (all zero, and
+        ``rot``, ``c_eig`` unset, if C is not positive definite).
+    """
+    ok, e_eig, s_fac, k_fac = _kinematics(c, measure, True)
+    if not ok:
+        return False, s_fac, k_fac, _ZERO6, _ZERO6
+    _mandel_rotation_into(q, rot)
+    _rtcr(rot, cel, cr, c_eig, 6)
+    ep_eig = _mtv6(rot, ep_old)
+    t_tr = _mv6(c_eig, _sub6(e_eig, ep_eig))
+    return True, s_fac, k_fac, ep_eig, t_tr
+
+
+@_inner
+def _foam_update(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_slope, rot, cr,
+                 c_eig, lu):
+    """Crushable-foam stress update at one point.
+
+    Args:
+        c: Eigenvalues of C (3-tuple).
+        q: (3, 3) eigenvectors of C (columns).
+        ep_n: (6,) converged plastic strain (global Mandel).
+        evp_n: Converged volumetric plastic strain.
+        pc_n: Compression strength at ``evp_n``.
+        cel: (6, 6) Mandel elastic stiffness in the material frame.
+        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
+        props: (N_PROPS,) parameters: ``PROP_ALPHA`` alpha, ``PROP_PT`` pt,
+            ``PROP_VISC`` eta / dt (0 without viscous regularisation).
+        xs: Hardening table abscissae.
+        ys: Hardening table values.
+        ds: Hardening table slopes.
+        pc_slope: Lipschitz constant of the hardening curve.
+        rot: (6, 6) scratch (Mandel rotation of the eigenframe).
+        cr: (6, 6) scratch.
+        c_eig: (6, 6) scratch (stiffness in the eigenframe).
+        lu: (6, 7) scratch for the linear solves.
+
+    Returns:
+        (status, S, new plastic strain, new volumetric plastic strain); S (zero on
+        failure) and the plastic strain (``ep_n`` unless converged) are global Mandel
+        6-tuples.
+    """
+    ep_old = (ep_n[0], ep_n[1], ep_n[2], ep_n[3], ep_n[4], ep_n[5])
+    ok, s_fac, k_fac, ep_eig, t_tr = _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig)
+    if not ok:
+        return STATUS_INVERTED, _ZERO6, ep_old, evp_n
+    alpha = props[PROP_ALPHA]
+    pt = props[PROP_PT]
+    visc = props[PROP_VISC]
+    f_tr = _foam_yield(_mul6(k_fac, t_tr), pc_n, pt, alpha)
+    scale = pc_n + pt
+    if f_tr <= 1e-12 * scale:
+        return STATUS_OK, _mv6(rot, _mul6(s_fac, t_tr)), ep_old, evp_n
+    bound = _phi_bound_data(f_tr, c_eig, k_fac, t_tr, scale, evp_n, pc_slope, alpha, visc)
+    converged, mu, t, sig = _return_mapping(f_tr, 1e-13 * scale, bound, c_eig, k_fac, t_tr, lu,
+                                            evp_n, xs, ys, ds, pt, alpha, visc)
+    if not converged:
+        return STATUS_RETURN_MAP, _ZERO6, ep_old, evp_n
+    ep_new = _mv6(rot, _axpy6(ep_eig, mu, sig))
+    evp = evp_n - mu * (sig[0] + sig[1] + sig[2])
+    return STATUS_OK, _mv6(rot, _mul6(s_fac, t)), ep_new, evp
+
+
+@_inner
+def _foam_frozen_update(c, q, ep_n, cel, measure, rot, cr, c_eig):
+    """Foam stress at one point with its plastic state frozen: the elastic trial stress.
+
+    No yield check and no return mapping: the stress of elastic unloading (or
+    reloading) about the converged plastic strain ``ep_n``, which is the foam's
+    stress whenever the trial state is inside the yield surface. A trial state whose
+    rotated Cauchy stress is not finite fails with ``STATUS_RETURN_MAP``, as the
+    return mapping it would enter in :func:`_foam_update` does.
+
+    Args:
+        c: Eigenvalues of C (3-tuple).
+        q: (3, 3) eigenvectors of C (columns).
+        ep_n: (6,) converged plastic strain (global Mandel).
+        cel: (6, 6) Mandel elastic stiffness in the material frame.
+        measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
+        rot: (6, 6) scratch (Mandel rotation of the eigenframe).
+        cr: (6, 6) scratch.
+        c_eig: (6, 6) scratch (stiffness in the eigenframe).
+
+    Returns:
+        (status, S as a Mandel 6-tuple in the global frame, zero on failure).
+    """
+    ep_old = (ep_n[0], ep_n[1], ep_n[2], ep_n[3], ep_n[4], ep_n[5])
+    ok, s_fac, k_fac, _ep, t_tr = _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig)
+    if not ok:
+        return STATUS_INVERTED, _ZERO6
+    sig = _mul6(k_fac, t_tr)
+    if not math.isfinite(_dot6(sig, sig)):
+        return STATUS_RETURN_MAP, _ZERO6
+    return STATUS_OK, _mv6(rot, _mul6(s_fac, t_tr))
