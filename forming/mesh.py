@@ -59,7 +59,8 @@ class MeshData:
         return msh.comm.allreduce(local, op=MPI.MIN)
 
 
-def _finish(gmsh, comm) -> MeshData:
+def mesh_from_gmsh(gmsh, comm) -> MeshData:
+    """The DOLFINx mesh, tags and group names of the current gmsh model."""
     data = compat.model_to_mesh(gmsh.model, comm, 0, gdim=3)
     names = {name: (pg.dim, pg.tag) for name, pg in data.physical_groups.items()}
     return MeshData(data.mesh, data.cell_tags, data.facet_tags, names)
@@ -128,7 +129,7 @@ def box(
                         ents.append(s)
                 gmsh.model.addPhysicalGroup(2, ents, tag, name=fname)
             gmsh.model.mesh.generate(3)
-        return _finish(gmsh, comm)
+        return mesh_from_gmsh(gmsh, comm)
     finally:
         gmsh.model.remove()
         if not initialised:
@@ -156,7 +157,7 @@ def from_file(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD) -> MeshData:
                 gmsh.open(str(p))
             except Exception as exc:  # gmsh raises a bare Exception
                 raise InputError("mesh.path", f"gmsh cannot read {p}: {exc}") from exc
-        return _finish(gmsh, comm)
+        return mesh_from_gmsh(gmsh, comm)
     finally:
         gmsh.clear()
         if not initialised:

@@ -155,7 +155,9 @@ class Simulation:
         return res
 
     def _fail(self, reason: str, res: StepResult) -> StepResult:
+        """Stop the run at the last converged state (already restored)."""
         self.status, self.reason = "failed", reason
+        self.model.set_load(self.stepper.t)  # tools and prescribed values back to it
         log.error("run stopped: %s", reason)
         return res
 

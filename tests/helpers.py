@@ -11,9 +11,11 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+import dolfinx_solver  # noqa: F401  (PETSc and MPI before dolfinx)
+
 import numpy as np
 import ufl
-from dolfinx import fem  # noqa: I001
+from dolfinx import fem
 
 import forming.compat  # noqa: F401
 from forming.mesh import box

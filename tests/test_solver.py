@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 from helpers import block_scene, body_taylor
 
-from forming.job import Job
 from forming.materials.library import honeycomb_core
 from forming.model import Model
-from forming.run import simulate
 from forming.solver.implicit import ImplicitSolver
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl, Stepper, StepTooSmall
@@ -80,40 +76,3 @@ def test_stepper_grows_cuts_and_lands_on_stops():
         st.reject()
     with pytest.raises(StepTooSmall, match="minimum"):
         st.reject()
-
-
-def test_cut_back_restores_state_exactly(tmp_path):
-    """With Newton limited to 2 iterations, steps fail and are retried smaller; because
-    displacement and plastic history are restored, the result equals an unhindered run."""
-    foam = honeycomb_core("isotropic", nu=0.3)
-
-    def job(newton, steps):
-        scene = block_scene(foam, clamped=True, cells=(2, 2, 2), stroke=-3.0)
-        return Job(scene=scene, steps=steps, newton=newton)
-
-    ref = simulate(job(NewtonOptions(), StepControl(initial=0.05, max=0.05)),
-                   tmp_path / "ref", "ref", {})
-    hard = simulate(job(NewtonOptions(max_it=4, predictor="previous"),
-                        StepControl(initial=0.5, max=0.5, min=1e-3, stops=(0.5,))),
-                    tmp_path / "hard", "hard", {})
-    assert ref["status"] == hard["status"] == "completed"
-    assert hard["timing"]["rejected_steps"] > 0
-    f_ref = np.loadtxt(tmp_path / "ref" / "history.csv", delimiter=",", skiprows=1,
-                       usecols=-1)[-1]
-    f_hard = np.loadtxt(tmp_path / "hard" / "history.csv", delimiter=",", skiprows=1,
-                        usecols=-1)[-1]
-    assert f_hard == pytest.approx(f_ref, rel=2e-3)  # path-dependent plasticity, other steps
-
-
-def test_failed_run_stops_cleanly_with_last_state_on_disk(tmp_path):
-    foam = honeycomb_core("isotropic", nu=0.3)
-    scene = block_scene(foam, clamped=True, stroke=-8.0)
-    summary = simulate(Job(scene=scene, newton=NewtonOptions(max_it=1, predictor="previous"),
-                           steps=StepControl(initial=0.3, max=0.3, min=0.1)),
-                       tmp_path, "doomed", {})
-    assert summary["status"] == "failed"
-    assert "minimum" in summary["reason"]
-    on_disk = json.loads((tmp_path / "summary.json").read_text())
-    assert on_disk["status"] == "failed" and on_disk["reason"] == summary["reason"]
-    assert (tmp_path / "history.csv").is_file()
-    assert (tmp_path / "displacement.bp").is_dir()

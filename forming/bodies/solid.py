@@ -173,15 +173,21 @@ class SolidBody(BodyBase):
         self.invalidate()
 
     def snapshot(self) -> tuple:
-        """Copy of the displacement and the converged plastic state."""
+        """Copy of the displacement, the converged plastic state and its stress.
+
+        The stress is kept so that forms evaluated after a restore (reactions, output)
+        see the converged state, not the last (failed) iterate.
+        """
         return (self.u.x.array.copy(),
-                None if self.plastic is None else self.plastic.snapshot())
+                None if self.plastic is None else self.plastic.snapshot(),
+                self.S.x.array.copy())
 
     def restore(self, snap: tuple) -> None:
         """Return to a snapshot."""
         self.u.x.array[:] = snap[0]
         if snap[1] is not None:
             self.plastic.restore(snap[1])
+        self.S.x.array[:] = snap[2]
         self.invalidate()
 
     def contact_stiffness(self) -> float:

@@ -275,9 +275,10 @@ class InterfaceTerm:
         self.u2_prev.x.array[:] = self.second.u.x.array
 
     def snapshot(self) -> tuple:
-        """Copy of the multipliers."""
+        """Copy of the multipliers and of the slip reference (the last converged state)."""
         return (None if self.lam_n is None else self.lam_n.x.array.copy(),
-                None if self.lam_t is None else self.lam_t.x.array.copy())
+                None if self.lam_t is None else self.lam_t.x.array.copy(),
+                self.u1_prev.x.array.copy(), self.u2_prev.x.array.copy())
 
     def restore(self, snap: tuple) -> None:
         """Return to a snapshot."""
@@ -285,6 +286,8 @@ class InterfaceTerm:
             self.lam_n.x.array[:] = snap[0]
         if self.lam_t is not None:
             self.lam_t.x.array[:] = snap[1]
+        self.u1_prev.x.array[:] = snap[2]
+        self.u2_prev.x.array[:] = snap[3]
 
     # -- outputs --------------------------------------------------------------------------
     def slip(self) -> tuple[np.ndarray, np.ndarray]:

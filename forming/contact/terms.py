@@ -193,15 +193,19 @@ class ContactTerm:
             self._offset_prev.value[:] = self._offset.value
 
     def snapshot(self) -> tuple:
-        """Copy of the multipliers (the slip reference is the converged state)."""
-        return (self.lam_n.x.array.copy(),
-                None if self.lam_t is None else self.lam_t.x.array.copy())
+        """Copy of the multipliers and of the slip reference (the last converged state)."""
+        if self.lam_t is None:
+            return (self.lam_n.x.array.copy(), None, None, None)
+        return (self.lam_n.x.array.copy(), self.lam_t.x.array.copy(),
+                self.u_prev.x.array.copy(), self._offset_prev.value.copy())
 
     def restore(self, snap: tuple) -> None:
         """Return to a snapshot."""
         self.lam_n.x.array[:] = snap[0]
         if self.lam_t is not None:
             self.lam_t.x.array[:] = snap[1]
+            self.u_prev.x.array[:] = snap[2]
+            self._offset_prev.value[:] = snap[3]
 
     # -- outputs -----------------------------------------------------------------------
     def force(self) -> np.ndarray:
