@@ -145,7 +145,7 @@ def prepare_case(name: str, assignments: list[str], build=None, params_cls=None)
     """The job of case ``name`` with ``--set`` assignments, and its parameters as recorded.
 
     Besides the case's parameters every case accepts ``solver=implicit|explicit`` and
-    ``explicit.<setting>=value`` (:class:`~forming.solver.explicit.ExplicitOptions`).
+    ``explicit.<setting>=value`` (:class:`~forming.solver.options.ExplicitOptions`).
     """
     if build is None:
         module = load_case(name)
