@@ -33,13 +33,13 @@ sys.path.insert(0, str(REPO))
 from forming.compare import force_differences, interval_means  # noqa: E402
 from forming.solver.options import ExplicitOptions  # noqa: E402
 
-STROKE, COPIES = 50.0, 4.0
+STROKE = 50.0
 
 
 def _curve(out: Path) -> tuple[np.ndarray, np.ndarray]:
     """Load parameters and punch force [N] of a run's history."""
     h = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
-    return np.atleast_1d(h["t"]), COPIES * np.atleast_1d(h["force_punch_z_N"])
+    return np.atleast_1d(h["t"]), np.atleast_1d(h["force_punch_z_N"])  # whole part
 
 
 def _error(ref: tuple[np.ndarray, np.ndarray], run: tuple[np.ndarray, np.ndarray],

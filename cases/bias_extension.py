@@ -37,13 +37,13 @@ from forming.solver.stepping import StepControl
 class Params:
     """Parameters of the bias-extension case (mm)."""
 
-    width: float = 60.0
-    aspect: float = 2.0  # free length over width (1:2 specimen)
-    thickness: float = 0.4
+    width: float = 60.0  # specimen width [mm]
+    aspect: float = 2.0  # free length over width (2: the 1:2 specimen)
+    thickness: float = 0.4  # ply thickness [mm]
     element: float = 2.5  # element size [mm]
-    shear_target_deg: float = 45.0  # pull until the kinematic central angle reaches this
-    curve: str | None = None
-    max_step: float = 0.05
+    shear_target_deg: float = 45.0  # pull until the kinematic central shear reaches this [deg]
+    curve: str | None = None  # CSV of the picture-frame shear curve; none: the shipped estimate
+    max_step: float = 0.05  # largest load step (fraction of the pull)
 
 
 def build(p: Params) -> Job:

@@ -31,14 +31,14 @@ from forming.solver.stepping import StepControl
 class Params:
     """Parameters of the C365 compression case (mm, MPa)."""
 
-    width: float = 50.0
-    thickness: float = 20.0
-    cells: tuple[int, ...] = (2, 2, 4)
-    strain: float = 0.9
-    elasticity: Literal["transverse", "isotropic"] = "transverse"
-    curve: str | None = None
-    max_step: float = 0.05
-    linear_solver: Literal["mumps", "gamg"] = "mumps"
+    width: float = 50.0  # specimen side [mm] (quarter of a 2 x width square)
+    thickness: float = 20.0  # core thickness [mm]
+    cells: tuple[int, ...] = (2, 2, 4)  # elements along x, y, z
+    strain: float = 0.9  # nominal strain reached (0 < strain < 1)
+    elasticity: Literal["transverse", "isotropic"] = "transverse"  # core elasticity
+    curve: str | None = None  # C365 curve CSV; none: shipped estimate
+    max_step: float = 0.05  # largest load step (fraction of the stroke)
+    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
 
 
 def build(p: Params) -> Job:

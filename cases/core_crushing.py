@@ -42,19 +42,19 @@ TOOL_CORE_FRICTION = 0.36  # paper, section "Friction between materials"
 class Params:
     """Parameters of the square-punch crushing case (mm)."""
 
-    size: float = 120.0
-    thickness: float = 20.0
-    punch: float = 80.0
-    fillet: float = 20.0
-    stroke: float = 10.0
-    gap: float = 0.0  # initial clearance between punch and core; the punch travels gap + stroke
-    friction: float = TOOL_CORE_FRICTION
-    cells: tuple[int, ...] = (8, 8, 6)
-    elasticity: Literal["transverse", "isotropic"] = "transverse"
-    curve: str | None = None
-    viscosity: float = 0.003  # MPa: viscous regularisation (docs/validation.md, eta study)
-    max_step: float = 0.1
-    linear_solver: Literal["mumps", "gamg"] = "mumps"
+    size: float = 120.0  # core side [mm] (paper: 120)
+    thickness: float = 20.0  # core thickness [mm] (paper: 20)
+    punch: float = 80.0  # punch side [mm] (paper: 80)
+    fillet: float = 20.0  # punch edge fillet radius [mm] (paper: 20)
+    stroke: float = 10.0  # punch travel into the core [mm] (paper: 10)
+    gap: float = 0.0  # initial clearance above the core [mm]; the punch travels gap + stroke
+    friction: float = TOOL_CORE_FRICTION  # tool-core Coulomb coefficient (paper: 0.36)
+    cells: tuple[int, ...] = (8, 8, 6)  # elements along x, y, z of the quarter model
+    elasticity: Literal["transverse", "isotropic"] = "transverse"  # core elasticity
+    curve: str | None = None  # C365 curve CSV; none: shipped estimate
+    viscosity: float = 0.003  # viscous regularisation [MPa per unit load]
+    max_step: float = 0.1  # largest load step (fraction of the stroke)
+    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
 
 
 def build(p: Params) -> Job:

@@ -35,13 +35,13 @@ class Params:
     by 1.3% (mesh-converged), at 24 (the default) by 0.5% (docs/validation.md).
     """
 
-    length: float = 480.0
-    width: float = 50.0
-    thickness: float = 20.0
-    cells: tuple[int, ...] = (48, 2, 4)
-    shear_strain: float = 0.02
-    elasticity: Literal["transverse", "isotropic"] = "transverse"
-    linear_solver: Literal["mumps", "gamg"] = "mumps"
+    length: float = 480.0  # specimen length [mm] (ASTM C273: >= 12 thickness)
+    width: float = 50.0  # specimen width [mm]
+    thickness: float = 20.0  # core thickness [mm]
+    cells: tuple[int, ...] = (48, 2, 4)  # elements along x, y, z
+    shear_strain: float = 0.02  # engineering shear strain reached
+    elasticity: Literal["transverse", "isotropic"] = "transverse"  # core elasticity
+    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
 
 
 def build(p: Params) -> Job:

@@ -32,14 +32,14 @@ E_PAPER = 0.2  # MPa, paper section "In-plane tensile testing"
 class Params:
     """Parameters of the in-plane tension case (mm, MPa)."""
 
-    direction: Literal["longitudinal", "transverse"] = "longitudinal"
-    length: float = 150.0
-    width: float = 50.0
-    thickness: float = 20.0
-    cells: tuple[int, ...] = (6, 2, 2)
-    strain: float = 0.32
-    elasticity: Literal["transverse", "isotropic"] = "transverse"
-    linear_solver: Literal["mumps", "gamg"] = "mumps"
+    direction: Literal["longitudinal", "transverse"] = "longitudinal"  # pull direction in the core
+    length: float = 150.0  # specimen length [mm]
+    width: float = 50.0  # specimen width [mm]
+    thickness: float = 20.0  # core thickness [mm]
+    cells: tuple[int, ...] = (6, 2, 2)  # elements along x, y, z
+    strain: float = 0.32  # nominal strain reached
+    elasticity: Literal["transverse", "isotropic"] = "transverse"  # core elasticity
+    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
 
 
 def build(p: Params) -> Job:

@@ -42,29 +42,29 @@ TOOL_FABRIC_FRICTION = 0.23
 class Params:
     """Parameters of the hemisphere forming case (mm)."""
 
-    blank_holder: bool = False
-    size: float = 300.0
-    thickness: float = 20.0
-    punch_diameter: float = 100.0
-    die_diameter: float = 144.0
-    edge_radius: float = 10.0  # estimate: not stated in the paper
-    stroke: float = 50.0
-    friction: float = TOOL_CORE_FRICTION
-    cells: tuple[int, ...] = (20, 20, 4)
-    grading: float = 1.08
-    elasticity: Literal["transverse", "isotropic"] = "isotropic"
-    curve: str | None = None
-    viscosity: float = 0.003  # MPa: viscous regularisation (docs/validation.md, eta study)
-    max_step: float = 0.01
-    min_step: float = 1e-4
-    linear_solver: Literal["mumps", "gamg"] = "mumps"
-    skins: bool = False
-    plies: int = 1
-    skin_thickness: float = 0.4
-    skin_friction: float = FABRIC_CORE_FRICTION
-    tool_skin_friction: float = TOOL_FABRIC_FRICTION
-    skin_stabilisation: float = 1e-3  # fraction of the interface penalty (docs/theory.md)
-    skin_smoothing: float = 0.0  # smoothed interface pressure ramp (docs/theory.md)
+    blank_holder: bool = False  # clamp the flange with a blank holder
+    size: float = 300.0  # blank side [mm] (paper: 300)
+    thickness: float = 20.0  # core thickness [mm] (paper: 20)
+    punch_diameter: float = 100.0  # punch diameter [mm] (paper: 100)
+    die_diameter: float = 144.0  # die opening [mm] (paper: 144)
+    edge_radius: float = 10.0  # die and holder edge radius [mm] (estimate)
+    stroke: float = 50.0  # punch travel [mm] (paper: 50)
+    friction: float = TOOL_CORE_FRICTION  # tool-core Coulomb coefficient (paper: 0.36)
+    cells: tuple[int, ...] = (20, 20, 4)  # elements along x, y and through the core (quarter model)
+    grading: float = 1.08  # in-plane element growth away from the centre (core alone)
+    elasticity: Literal["transverse", "isotropic"] = "isotropic"  # core elasticity
+    curve: str | None = None  # C365 curve CSV; none: shipped estimate
+    viscosity: float = 0.003  # viscous regularisation [MPa per unit load]
+    max_step: float = 0.01  # largest load step (fraction of the stroke)
+    min_step: float = 1e-4  # smallest load step
+    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
+    skins: bool = False  # the sandwich: NCF skins on both faces, sliding on the core
+    plies: int = 1  # plies per skin
+    skin_thickness: float = 0.4  # ply thickness [mm]
+    skin_friction: float = FABRIC_CORE_FRICTION  # skin-core Coulomb coefficient (paper: 0.52)
+    tool_skin_friction: float = TOOL_FABRIC_FRICTION  # tool-skin Coulomb coefficient (paper: 0.23)
+    skin_stabilisation: float = 1e-3  # interface stabilisation, fraction of its penalty
+    skin_smoothing: float = 0.0  # smoothed interface pressure ramp (fraction)
 
 
 def build(p: Params) -> Job:

@@ -37,12 +37,12 @@ from forming.solver.stepping import StepControl
 class Params:
     """Parameters of the picture-frame case (mm, degrees)."""
 
-    side: float = 100.0
-    thickness: float = 0.4
-    cells: tuple[int, ...] = (8, 8, 1)
-    shear_max_deg: float = 55.0
-    curve: str | None = None  # CSV of the picture-frame curve; default: shipped estimate
-    max_step: float = 0.02
+    side: float = 100.0  # frame side [mm]
+    thickness: float = 0.4  # ply thickness [mm]
+    cells: tuple[int, ...] = (8, 8, 1)  # elements along x, y, z
+    shear_max_deg: float = 55.0  # largest shear angle of the cycle [deg]
+    curve: str | None = None  # CSV of the picture-frame curve; none: the shipped estimate
+    max_step: float = 0.02  # largest load step (fraction of the cycle)
 
 
 def build(p: Params) -> Job:

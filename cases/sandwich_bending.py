@@ -44,21 +44,21 @@ TOOL_FABRIC_FRICTION = 0.23
 class Params:
     """Parameters of the three-point bending case (mm)."""
 
-    span: float = 160.0  # distance between the support rollers
-    overhang: float = 20.0  # strip beyond each support
-    width: float = 20.0
-    core_thickness: float = 10.0
-    skin_thickness: float = 0.4
-    element: float = 5.0
-    core_layers: int = 4
-    roller_radius: float = 10.0
-    deflection: float = 12.0  # roller travel (bonded skins: Newton fails near 14.5 mm)
-    interface: Literal["frictional", "bonded", "frictionless"] = "frictional"
-    friction: float = FABRIC_CORE_FRICTION
-    tool_friction: float = TOOL_FABRIC_FRICTION
-    fibre_angles: tuple[float, ...] = (0.0, 90.0)
-    max_step: float = 0.05
-    line_search: Literal["basic", "bt"] = "bt"
+    span: float = 160.0  # distance between the support rollers [mm]
+    overhang: float = 20.0  # strip beyond each support [mm]
+    width: float = 20.0  # strip width [mm]
+    core_thickness: float = 10.0  # core thickness [mm]
+    skin_thickness: float = 0.4  # ply thickness [mm]
+    element: float = 5.0  # element size [mm]
+    core_layers: int = 4  # elements through the core
+    roller_radius: float = 10.0  # roller radius [mm]
+    deflection: float = 12.0  # roller travel [mm] (bonded skins: Newton fails near 14.5)
+    interface: Literal["frictional", "bonded", "frictionless"] = "frictional"  # skin-core
+    friction: float = FABRIC_CORE_FRICTION  # skin-core Coulomb coefficient (paper: 0.52)
+    tool_friction: float = TOOL_FABRIC_FRICTION  # roller-skin Coulomb coefficient (paper: 0.23)
+    fibre_angles: tuple[float, ...] = (0.0, 90.0)  # fibre directions of the skins [deg]
+    max_step: float = 0.05  # largest load step (fraction of the deflection)
+    line_search: Literal["basic", "bt"] = "bt"  # Newton line search: basic or bt
 
 
 def build(p: Params) -> Job:
@@ -92,7 +92,7 @@ def build(p: Params) -> Job:
                   tools=tools, contacts=contacts, interfaces=b.interfaces, symmetry_copies=4)
 
     def metrics(rec, model) -> dict:
-        force = post.whole(model, rec.column("force_roller_z_N"))
+        force = rec.column("force_roller_z_N")  # whole part
         d = rec.column("t") * p.deflection
         return post.force_peak_final(rec, model, "force_roller_z_N", "force") | {
             "deflection_mm": float(d[-1]),

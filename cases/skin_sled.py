@@ -36,15 +36,15 @@ FABRIC_CORE_FRICTION = 0.52  # paper, section "Friction between materials"
 class Params:
     """Parameters of the sled test (mm, MPa)."""
 
-    length: float = 50.0
-    width: float = 50.0
-    core_thickness: float = 10.0
-    skin_thickness: float = 0.4
-    element: float = 10.0
-    pressure: float = 0.002  # 2 kPa
-    friction: float = FABRIC_CORE_FRICTION
-    drag: float = 2.0  # mm of pull
-    steps: int = 10
+    length: float = 50.0  # sled length [mm] (paper: 50 x 100 sample)
+    width: float = 50.0  # sled width [mm]
+    core_thickness: float = 10.0  # core thickness [mm]
+    skin_thickness: float = 0.4  # ply thickness [mm]
+    element: float = 10.0  # element size [mm]
+    pressure: float = 0.002  # normal pressure [MPa] (paper: 2 kPa)
+    friction: float = FABRIC_CORE_FRICTION  # skin-core Coulomb coefficient (paper: 0.52)
+    drag: float = 2.0  # pull [mm]
+    steps: int = 10  # load steps
 
 
 def build(p: Params) -> Job:

@@ -16,7 +16,7 @@ import types
 import typing
 from pathlib import Path
 
-from forming.errors import InputError
+from forming.errors import EXIT_CODES, InputError
 
 log = logging.getLogger(__name__)
 
@@ -197,7 +197,13 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
 
 def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
             params_cls=None) -> int:
-    """Run a case from parsed arguments; report where the outputs are. Returns exit code."""
+    """Run a case from parsed arguments; report where the outputs are.
+
+    An error on any rank ends every rank promptly (``MPI_Abort`` under ``mpirun``).
+
+    Returns:
+        The exit code (:data:`forming.errors.EXIT_CODES`).
+    """
     from mpi4py import MPI
 
     from forming.log import setup
@@ -209,19 +215,40 @@ def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
         out = args.out or Path("results") / name
         summary = run_case(name, out, args.assignments, build, params_cls)
     except InputError as exc:
-        if comm.rank == 0:
-            log.error("%s", exc)
-        return 2
+        return end_with_error(comm, "input", str(exc))
+    except OSError as exc:
+        return end_with_error(comm, "io", str(exc))
+    except Exception as exc:  # noqa: BLE001  (reported, then every rank ends)
+        log.exception("internal error")
+        return end_with_error(comm, "internal", f"{type(exc).__name__}: {exc}")
     if comm.rank == 0:
-        print(f"{name}: {summary['status']}"
-              + (f" ({summary['reason']})" if summary["reason"] else ""))
-        for k, v in summary["metrics"].items():
-            print(f"  {k} = {v}")
-        timing = summary["timing"]
-        print(f"  wall {timing['wall_s']:.2f} s, {timing['steps']} steps, "
-              f"{timing['work']} {timing['work_name']}")
-        print(f"outputs in {Path(out).resolve()}")
-    return 0 if summary["status"] == "completed" else 1
+        _report(name, summary, Path(out))
+    if summary["status"] == "interrupted":
+        return EXIT_CODES[summary.get("signal", "SIGINT")]
+    return EXIT_CODES["completed"] if summary["status"] == "completed" else EXIT_CODES["failed"]
+
+
+def end_with_error(comm, kind: str, message: str) -> int:
+    """Report an error; under MPI end every rank (it may have been raised on one only)."""
+    log.error("%s", message)
+    code = EXIT_CODES[kind]
+    if comm.size > 1:
+        comm.Abort(code)
+    return code
+
+
+def _report(name: str, summary: dict, out: Path) -> None:
+    """The run's outcome, metrics, cost and output folder on standard output."""
+    print(f"{name}: {summary['status']}"
+          + (f" ({summary['reason']})" if summary["reason"] else ""))
+    for k, v in summary["metrics"].items():
+        print(f"  {k} = {v}")
+    for w in summary.get("warnings", []):
+        print(f"  warning: {w}")
+    timing = summary["timing"]
+    print(f"  wall {timing['wall_s']:.2f} s, {timing['steps']} steps, "
+          f"{timing['work']} {timing['work_name']}")
+    print(f"outputs in {out.resolve()}")
 
 
 def main(build, params_cls, name: str) -> None:

@@ -20,20 +20,21 @@ log = logging.getLogger("forming")
 def _compare(args: argparse.Namespace, extra: list[str]) -> int:
     from mpi4py import MPI
 
-    from forming.case import apply_petsc_args
+    from forming.case import apply_petsc_args, end_with_error
     from forming.compare import compare
     from forming.errors import InputError
     from forming.log import setup
 
     setup()
+    comm = MPI.COMM_WORLD
     out = args.out or Path("results") / f"{args.case}_compare"
     try:
         apply_petsc_args(extra)
         r = compare(args.case, out, args.assignments, reuse=args.reuse)
     except InputError as exc:
-        if MPI.COMM_WORLD.rank == 0:
-            log.error("%s", exc)
-        return 2
+        return end_with_error(comm, "input", str(exc))
+    except OSError as exc:
+        return end_with_error(comm, "io", str(exc))
     if MPI.COMM_WORLD.rank == 0:
         print(f"{args.case}: implicit {r['status_implicit']}, explicit {r['status_explicit']}")
         for key in ("force_rms_diff_rel", "peak_force_diff_rel", "shape_rms_diff_rel_thickness",

@@ -22,3 +22,15 @@ class KernelFailure(RuntimeError):
     Raised inside a solve; the solver turns it into a failed step, which the step
     lifecycle cuts back (implicit) or reports (explicit).
     """
+
+
+EXIT_CODES = {
+    "completed": 0,
+    "failed": 1,  # a solve that did not converge, or a case's code that raised
+    "input": 2,  # bad input: an unknown case or parameter, a bad value, a used folder
+    "io": 3,  # a file or folder that cannot be read or written
+    "internal": 4,  # an unexpected error (a bug: please report it)
+    "SIGINT": 130,  # interrupted by Ctrl-C: the last converged state is on disk
+    "SIGTERM": 143,  # stopped by a scheduler: the last converged state is on disk
+}
+"""Exit codes of ``forming run`` and the case scripts (README, "Exit codes")."""

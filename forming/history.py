@@ -6,7 +6,10 @@ probe) writes its own columns through :class:`HistoryWriter`. A column written b
 two writers is an error (:func:`merge`), never a silent override.
 
 Column names carry their unit: ``_N`` force, ``_mm`` length, ``_mm3`` volume, ``_s``
-time, ``_Nmm`` energy.
+time, ``_Nmm`` energy. Forces, volumes and energies are those of the whole part: the
+step lifecycle scales the model's and the solver's columns by the scene's symmetry
+copies (:func:`whole_part`); a case's probe writes whole-part figures itself
+(:func:`forming.post.whole`).
 """
 
 from __future__ import annotations
@@ -42,6 +45,21 @@ def interface_columns(region: str) -> dict[str, str]:
 
 
 MAX_PENETRATION = "max_penetration_mm"
+STROKE = "stroke_mm"
+
+EXTENSIVE_UNITS = ("_N", "_mm3", "_Nmm")
+"""Units of the figures that scale with the part: forces, volumes, energies."""
+
+
+def whole_part(columns: dict[str, float], copies: int) -> dict[str, float]:
+    """Columns of the modelled part as figures of the whole part.
+
+    A quarter model (``copies`` 4) carries a quarter of every force, volume and energy
+    (:data:`EXTENSIVE_UNITS`); lengths, angles, strains and counts are the same.
+    """
+    if copies == 1:
+        return dict(columns)
+    return {k: copies * v if k.endswith(EXTENSIVE_UNITS) else v for k, v in columns.items()}
 
 
 class ForceSampler(Protocol):

@@ -28,8 +28,8 @@ class Response:
     Attributes:
         column: History column of the force [N].
         travel: Travel at load parameter 1 [mm] (the curve's abscissa is ``t * travel``).
-        scale: Factor on the column: -1 for a reaction; None takes the scene's symmetry
-            copies (the whole part's force from a quarter model's).
+        scale: Factor on the column (-1 for a reaction); None: 1. History columns hold
+            whole-part forces already.
         label: Name of the force in plots.
     """
 
@@ -65,7 +65,10 @@ class Job:
             differences in time; a step is then an output interval).
         explicit: Settings of the explicit solver.
         response: The run's force-travel curve; None: the first tool's z force (or the
-            first reaction) against the load parameter.
+            first reaction) against the travel.
+        travel: Travel of the load programme at load parameter 1 [mm] (the ``stroke_mm``
+            history column, progress and messages); None: the largest tool or
+            prescribed-displacement travel of the scene (:meth:`travel_mm`).
     """
 
     scene: Scene
@@ -79,31 +82,48 @@ class Job:
     solver: Literal["implicit", "explicit"] = "implicit"
     explicit: ExplicitOptions = field(default_factory=ExplicitOptions)
     response: Response | None = None
+    travel: float | None = None
 
     def __post_init__(self) -> None:
         if self.field_every < 1:
             raise InputError("job.field_every", f"must be >= 1, got {self.field_every}")
+        if self.travel is not None and not (np.isfinite(self.travel) and self.travel > 0):
+            raise InputError("job.travel", f"must be a positive length [mm], got {self.travel}")
+
+    def travel_mm(self) -> float | None:
+        """Travel at load parameter 1 [mm]: the job's, else the scene's largest.
+
+        The scene's is the largest displacement at ``t = 1`` of a tool, or else of a
+        prescribed face (None when neither moves, e.g. an affine fixture).
+        """
+        if self.travel is not None:
+            return self.travel
+        moves = [float(np.linalg.norm(t.offset(1.0))) for t in self.scene.tools]
+        if not any(moves):
+            moves = [abs(d.value(c, 1.0)) for d in self.scene.displacements
+                     if hasattr(d, "value") for c, _p in d.components()]
+        largest = max(moves, default=0.0)
+        return largest if largest > 0 else None
 
     def response_or_default(self) -> Response:
-        """The job's response with its scale resolved, or the first tool's z force.
+        """The job's response (a missing scale is 1), or a default one.
 
-        A response without a scale takes the scene's symmetry copies; the default for a
-        scene without tools is the first recorded reaction (sign as recorded).
+        The default is the first tool's z force, else the first recorded reaction (sign as
+        recorded), against the travel (:meth:`travel_mm`; the load parameter if none).
+        History columns are whole-part figures, so no symmetry factor enters here.
         """
-        copies = float(self.scene.symmetry_copies)
         if self.response is not None:
-            if self.response.scale is None:
-                return Response(self.response.column, self.response.travel, copies,
-                                self.response.label)
-            return self.response
+            r = self.response
+            return r if r.scale is not None else Response(r.column, r.travel, 1.0, r.label)
+        travel = self.travel_mm() or 1.0
         if self.scene.tools:
             name = self.scene.tools[0].name
-            return Response(force_column(name, 2), scale=copies, label=f"{name} force")
+            return Response(force_column(name, 2), travel, 1.0, f"{name} force")
         for d in self.scene.displacements:
             comps = [i for i in (2, 0, 1) if getattr(d, "xyz"[i], None) is not None]
             if d.reaction and comps:
                 key = reaction_key(d.region, comps[0],
                                    d.body if len(self.scene.bodies) > 1 else None)
-                return Response(reaction_column(key), scale=1.0, label=f"reaction {key}")
+                return Response(reaction_column(key), travel, 1.0, f"reaction {key}")
         raise InputError("response", "the job has no tool and no recorded reaction: give "
                          "Job.response to compare its force")

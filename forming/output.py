@@ -5,9 +5,12 @@ Only rank 0 writes files; every collective happens on all ranks before that.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import math
+import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +18,19 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat
+from forming.errors import InputError
+
+
+@contextlib.contextmanager
+def _replacing(path: Path):
+    """Write a text file through a temporary file renamed over it.
+
+    A run killed while writing leaves the previous version whole, never a truncated file.
+    """
+    tmp = path.with_name(path.name + ".tmp")
+    with tmp.open("w", newline="") as fh:
+        yield fh
+    os.replace(tmp, path)
 
 
 def json_safe(value):
@@ -30,6 +46,51 @@ def json_safe(value):
     return value
 
 
+RUN_FILES = ("summary.json", "summary.json.tmp", "history.csv", "history.csv.tmp",
+             "final_shape.npz", "*.png", "*.bp", "*.pvd", "*.vtkhdf", "tools")
+"""What a run writes into its folder (glob patterns); a rerun removes these first."""
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    else:
+        path.unlink()
+
+
+def prepare_output_folder(out: Path, comm: MPI.Comm) -> None:
+    """Make ``out`` ready for a run (collective).
+
+    A missing folder is created. A folder that holds an earlier run (its
+    ``summary.json``) is cleared of that run's files (:data:`RUN_FILES`), so that no
+    file of another run stays beside the new one; other files are left alone. A
+    non-empty folder without a run in it is refused, as is a path that is a file.
+
+    Raises:
+        InputError: On every rank, naming the folder and the problem.
+    """
+    problem = None
+    if comm.rank == 0:
+        try:
+            if out.exists() and not out.is_dir():
+                problem = f"{out} is a file, not a folder"
+            elif out.is_dir() and any(out.iterdir()):
+                if not (out / "summary.json").is_file():
+                    problem = (f"{out} is not empty and holds no earlier run (no summary.json):"
+                               " choose an empty or new folder")
+                else:
+                    for pattern in RUN_FILES:
+                        for path in out.glob(pattern):
+                            _remove(path)
+            else:
+                out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            problem = f"{out}: {exc.strerror or exc}"
+    problem = comm.bcast(problem, root=0)
+    if problem is not None:
+        raise InputError("--out", problem)
+
+
 class Recorder:
     """Writes the run's history rows, fields and summary into ``out``.
 
@@ -42,9 +103,7 @@ class Recorder:
         self.out = Path(out)
         self.comm = comm
         self.rows: list[dict[str, float]] = []
-        if comm.rank == 0:
-            self.out.mkdir(parents=True, exist_ok=True)
-        comm.barrier()
+        prepare_output_folder(self.out, comm)
         self._writers: list = []
         self._stems: list[str] = []
 
@@ -75,7 +134,7 @@ class Recorder:
     def _write_history(self) -> None:
         if self.comm.rank == 0 and self.rows:
             keys = list(self.rows[0].keys())
-            with (self.out / "history.csv").open("w", newline="") as fh:
+            with _replacing(self.out / "history.csv") as fh:
                 w = csv.DictWriter(fh, fieldnames=keys)
                 w.writeheader()
                 w.writerows(self.rows)
@@ -88,7 +147,8 @@ class Recorder:
         """Write ``summary.json`` (rank 0)."""
         path = self.out / "summary.json"
         if self.comm.rank == 0:
-            path.write_text(json.dumps(json_safe(summary), indent=2) + "\n")
+            with _replacing(path) as fh:
+                fh.write(json.dumps(json_safe(summary), indent=2) + "\n")
         return path
 
     def close(self) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from forming import signals
 from forming.job import Job
 from forming.simulation import Simulation
 
@@ -11,7 +12,14 @@ from forming.simulation import Simulation
 def simulate(job: Job, out: Path, case: str, parameters: dict) -> dict:
     """Run a job through the load programme and write the output contract into ``out``.
 
+    SIGINT and SIGTERM stop the run at its last converged state (status
+    ``interrupted``, the signal in ``summary["signal"]``) instead of killing it.
+
     Returns:
         The summary (as written to ``summary.json``).
     """
-    return Simulation(job, Path(out), case, parameters).run()
+    with signals.catch_stops():
+        try:
+            return Simulation(job, Path(out), case, parameters).run()
+        finally:
+            signals.clear()

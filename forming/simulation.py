@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from forming import compat
-from forming.history import force_column, merge, reaction_column
+from forming import compat, provenance, signals
+from forming.history import STROKE, force_column, merge, reaction_column, whole_part
 from forming.job import Job
 from forming.log import Progress
 from forming.model import Model
@@ -77,14 +77,26 @@ class Simulation:
         self.stepper = Stepper(self.solver.step_control(job.steps))
         self.jit_s = time.perf_counter() - self._t_start
         self.recorder = Recorder(out, self.comm)
-        self.fields = FieldOutput(self.model, self.recorder)
-        self.progress = Progress(case)
+        self.run_record = provenance.run_record() if self.comm.rank == 0 else {}
         self.status = "running"
         self.reason = ""
+        self.signal: str | None = None
+        self.recorder.write_summary(self._header())  # a killed run is recognisable
+        self.fields = FieldOutput(self.model, self.recorder)
+        self.travel = job.travel_mm()
+        self.progress = Progress(case, self.travel)
         self._fields_at: float | None = None
         self._work = 0  # the solver's work over every attempted step
         self._started = False
         self._finished: dict | None = None
+
+    def _header(self) -> dict:
+        """The summary fields known from the start."""
+        return {"case": self.case, "status": self.status, "reason": self.reason,
+                "load_parameter_reached": self.stepper.t, "run": self.run_record,
+                "solver": self.solver.kind, "ranks": self.comm.size,
+                "parameters": self.parameters | {"solver": self.solver.kind}
+                | self.solver.parameters()}
 
     # -- state -------------------------------------------------------------------------
     @property
@@ -125,6 +137,8 @@ class Simulation:
         self.start()
         if self.done:
             raise RuntimeError(f"simulation {self.case!r} is done ({self.status})")
+        if (sig := signals.requested_anywhere(self.comm)) is not None:
+            return self._interrupt(sig, StepResult(False, 0, reason="interrupted"))
         stepper, solver = self.stepper, self.solver
         t_old, t_new = stepper.t, stepper.propose()
         state = (self.model.snapshot(), solver.snapshot())
@@ -132,26 +146,46 @@ class Simulation:
         res = solver.solve()
         self._work += res.work
         if res.converged:
+            before = stepper.state()
             self.model.commit()
             stepper.accept(t_new, res.work)
-            solver.accept(self.record(res))
-            log.info("step %d t=%.5f dt=%.3g %s=%d |r|=%.2e %.2fs", stepper.n_accepted, t_new,
-                     stepper.last_dt, solver.work_column, res.work, res.residual, res.seconds)
-            self.progress.update(t_new, f"step {stepper.n_accepted} {solver.work_name} "
-                                        f"{res.work}")
+            scale = self.record(res)
+            if scale is None:  # the case's probe failed: back to the last recorded state
+                self.model.restore(state[0])
+                solver.restore(state[1])
+                stepper.restore(before)
+                self.model.set_load(stepper.t)
+                return res
+            solver.accept(scale)
+            self.progress.step(stepper.n_accepted, t_new, stepper.last_dt,
+                               f"{res.work} {solver.work_name}", res.seconds)
             if stepper.n_accepted % self.job.field_every == 0 or stepper.done:
                 self.write_fields()
             return res
         self.model.restore(state[0])
         solver.restore(state[1])
+        if (sig := signals.requested_anywhere(self.comm)) is not None:
+            return self._interrupt(sig, res)
         if not solver.retries_on_failure:
-            return self._fail(f"at load parameter {t_old:.6g}: {res.reason}", res)
-        log.warning("step to t=%.5f failed after %d %s: %s; cutting back", t_new, res.work,
-                    solver.work_name, res.reason)
+            return self._fail(f"at {self.progress.where(t_old)} (load parameter {t_old:.6g}):"
+                              f" {res.reason}", res)
+        log.warning("step to %s (t=%.5f) failed after %d %s: %s; cutting back",
+                    self.progress.where(t_new), t_new, res.work, solver.work_name, res.reason)
         try:
             stepper.reject()
         except StepTooSmall as exc:
-            return self._fail(f"{exc}; last failure: {res.reason}", res)
+            return self._fail(f"{exc} ({self.progress.where(stepper.t)}); last failure: "
+                              f"{res.reason}", res)
+        return res
+
+    def _interrupt(self, signum: int, res: StepResult) -> StepResult:
+        """Stop the run at the last converged state on a stop request (SIGINT, SIGTERM)."""
+        self.signal = signals.signal_name(signum)
+        self.status = "interrupted"
+        self.reason = (f"interrupted by {self.signal} at {self.progress.where(self.t)} "
+                       f"(load parameter {self.t:.6g})")
+        self.model.set_load(self.stepper.t)
+        log.warning("run stopped: %s", self.reason)
         return res
 
     def _fail(self, reason: str, res: StepResult) -> StepResult:
@@ -169,26 +203,35 @@ class Simulation:
         return self.finish()
 
     # -- output hooks -----------------------------------------------------------------
-    def record(self, result: StepResult) -> float:
+    def record(self, result: StepResult) -> float | None:
         """Append the history row of the current (converged) state.
 
         Each writer adds its own columns (the stepper's, the solver's, the model's
         objects', the case's probe); a column written twice is an error.
 
         Returns:
-            The step's force scale: the largest reaction or tool force [N].
+            The step's force scale: the largest reaction or tool force [N]; None when the
+            case's probe raised (the run has failed and the row is not written).
         """
         row: dict[str, float] = {}
         owners: dict[str, str] = {}
-        st = self.stepper
+        st, copies = self.stepper, self.job.scene.symmetry_copies
         merge(row, {"step": st.n_accepted, "t": st.t, "dt": st.last_dt}, "stepper", owners)
-        merge(row, self.solver.history_columns(result), f"{self.solver.kind} solver", owners)
+        if self.travel is not None:
+            merge(row, {STROKE: st.t * self.travel}, "stepper", owners)
+        merge(row, whole_part(self.solver.history_columns(result), copies),
+              f"{self.solver.kind} solver", owners)
         merge(row, {"step_wall_s": result.seconds}, "simulation", owners)
-        merge(row, self.model.history_columns(self.solver), "model", owners)
+        model_columns = self.model.history_columns(self.solver)
+        scale = self._force_scale(model_columns)  # of the modelled part (Newton's tolerance)
+        merge(row, whole_part(model_columns, copies), "model", owners)
         if self.job.probe is not None:
-            merge(row, self.job.probe(self.model), "case probe", owners)
+            probed = self._hook("probe", self.job.probe, self.model)
+            if probed is None:
+                return None
+            merge(row, probed, "case probe", owners)
         self.recorder.record(row)
-        return self._force_scale(row)
+        return scale
 
     def _force_scale(self, row: dict[str, float]) -> float:
         scale = max((abs(row[reaction_column(k)]) for k in self.model.dirichlet.reaction_keys),
@@ -223,6 +266,19 @@ class Simulation:
         self._fields_at = cp.fields_at
         self.status, self.reason = "running", ""
 
+    def _hook(self, name: str, fn, *args):
+        """Call a case hook; an exception fails the run but keeps what was computed."""
+        if fn is None:
+            return None
+        try:
+            return fn(*args)
+        except Exception as exc:  # noqa: BLE001  (a case's code: report, never lose the run)
+            log.exception("case %s raised", name)
+            why = f"case {name} raised {type(exc).__name__}: {exc}"
+            self.reason = f"{self.reason}; {why}" if self.reason else why
+            self.status = "failed"
+            return None
+
     def finish(self) -> dict:
         """Close the output, evaluate the case's metrics and write ``summary.json``.
 
@@ -235,20 +291,17 @@ class Simulation:
         if self.status == "running":
             self.status = "completed" if self.stepper.done else "stopped"
             if not self.stepper.done:
-                self.reason = f"stopped by its driver at load parameter {self.t:.6g}"
+                self.reason = (f"stopped by its driver at {self.progress.where(self.t)} "
+                               f"(load parameter {self.t:.6g})")
         self.progress.close()
         if self._fields_at != self.stepper.t:
             self.write_fields()
         self.recorder.close()
         job, model, comm, rec = self.job, self.model, self.comm, self.recorder
-        metrics = job.metrics(rec, model) if job.metrics is not None else {}
+        metrics = self._hook("metrics", job.metrics, rec, model) or {}
         metrics |= self.solver.metrics()
         bodies = list(model.bodies.values())
-        summary = {
-            "case": self.case,
-            "status": self.status,
-            "reason": self.reason,
-            "load_parameter_reached": self.stepper.t,
+        summary = self._header() | {
             "metrics": metrics,
             "warnings": model.warnings(),
             "timing": {
@@ -257,24 +310,25 @@ class Simulation:
                 "kernel_s": comm.allreduce(sum(b.kernel_seconds for b in bodies)) / comm.size,
                 "work_name": self.solver.work_name, "work": self._work,
             } | self.solver.timing(),
-            "solver": self.solver.kind,
-            "ranks": comm.size,
             "mesh": {"cells": sum(comm.allreduce(b.n_local_cells) for b in bodies),
                      "dofs": sum(b.V.dofmap.index_map.size_global * 3 for b in bodies),
                      "quadrature_points_per_cell": bodies[0].n_points
                      // max(len(bodies[0].cells), 1),
                      "symmetry_copies": job.scene.symmetry_copies},
             "versions": compat.versions(),
-            "parameters": self.parameters | {"solver": self.solver.kind}
-            | self.solver.parameters(),
             "outputs": ["summary.json", "history.csv", *self.fields.outputs(),
                         "final_shape.npz"],
         }
+        if self.signal is not None:
+            summary["signal"] = self.signal
         write_final_shape(rec.out / "final_shape.npz", model.bodies, comm)
-        if job.pictures is not None:
-            summary["outputs"] += [p.name for p in job.pictures(model, rec.out)]
-        if comm.rank == 0 and job.plots is not None and rec.rows:
-            summary["outputs"] += [p.name for p in job.plots(rec, rec.out)]
+        summary["outputs"] += [p.name for p in self._hook("pictures", job.pictures, model,
+                                                            rec.out) or []]
+        if comm.rank == 0 and rec.rows:
+            summary["outputs"] += [p.name for p in self._hook("plots", job.plots, rec,
+                                                                rec.out) or []]
+        summary |= {"status": self.status, "reason": self.reason}  # a hook may have failed
+        summary["run"] = self.run_record | {"finished": provenance.now()}
         rec.write_summary(summary)
         self._finished = summary
         return summary

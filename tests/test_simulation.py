@@ -139,10 +139,25 @@ def test_a_column_written_twice_is_an_error(tmp_path):
         Simulation(job, tmp_path, "dup").start()
 
 
-def test_symmetry_copies_scale_the_response():
-    """The scene's symmetry copies scale a response without its own scale (declared once)."""
+def test_history_and_summary_agree_for_a_quarter_model(tmp_path):
+    """core_crushing is a quarter model (4 symmetry copies): the history's punch force and
+    crushed volume are whole-part figures, equal to the summary's metrics and to 4 times
+    the force of the model's own contact; the stroke column is in mm.
+
+    A failure means a figure is reported for the quarter in one file and for the whole
+    part in another.
+    """
     job = _crushing()
     assert job.scene.symmetry_copies == 4
-    assert job.response_or_default().scale == 4.0
+    sim = Simulation(job, tmp_path, "core_crushing")
+    m = sim.run()["metrics"]
+    h = history(tmp_path)
+    assert m["punch_force_max_N"] == h["force_punch_z_N"].max()
+    assert m["punch_force_final_N"] == h["force_punch_z_N"][-1]
+    assert m["crushed_volume_mm3"] == pytest.approx(h["crushed_volume_mm3"][-1], rel=1e-12)
+    own = sim.model.contacts[0].force()[2]
+    assert h["force_punch_z_N"][-1] == pytest.approx(4 * own, rel=1e-12)
+    assert h["stroke_mm"][-1] == pytest.approx(1.5, rel=1e-12)
+    assert job.response_or_default().scale == 1.0
     fixed = dataclasses.replace(job, response=Response("force_punch_z_N", 3.0, -1.0))
     assert fixed.response_or_default().scale == -1.0

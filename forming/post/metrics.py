@@ -1,8 +1,9 @@
 """Named measurements of a model's state, for case metrics and history probes.
 
 Every function here is collective (a reduction over the ranks): call it on every rank.
-Whole-part figures multiply by the scene's ``symmetry_copies`` (:func:`whole`), so no
-case writes a symmetry factor of its own.
+History columns are whole-part figures already (forces, volumes and energies scaled by
+the scene's ``symmetry_copies`` when recorded); integrals over the model are scaled here
+(:func:`whole`), so no case writes a symmetry factor of its own.
 """
 
 from __future__ import annotations
@@ -28,8 +29,9 @@ def relative_rms(computed: np.ndarray, reference: np.ndarray) -> float:
 
 
 def force_peak_final(rec, model, column: str, name: str = "punch_force") -> dict[str, float]:
-    """Largest and final whole-part force of a history column [N]."""
-    force = whole(model, rec.column(column))
+    """Largest and final force of a history column (whole part) [N]."""
+    del model  # the history holds whole-part forces already
+    force = rec.column(column)
     return {f"{name}_max_N": float(force.max()), f"{name}_final_N": float(force[-1])}
 
 

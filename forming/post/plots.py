@@ -16,10 +16,9 @@ def force_travel_plot(rec, out: Path, column: str, travel: float, copies: int, t
     Args:
         rec: The run's recorder.
         out: Output folder.
-        column: History column of the force [N] (of the modelled part).
+        column: History column of the force [N] (whole part).
         travel: Travel at load parameter 1 [mm].
-        copies: The scene's symmetry copies (the whole part's force is ``copies`` times
-            the column).
+        copies: The scene's symmetry copies (stated in the title).
         title: Plot title.
         label: Name of the force.
         name: File name.
@@ -27,8 +26,8 @@ def force_travel_plot(rec, out: Path, column: str, travel: float, copies: int, t
         ylabel: Label of the force axis (default: the label with its unit).
     """
     x = rec.column("t") * travel
-    whole = "" if copies == 1 else f" (whole part: {copies} x the modelled part)"
-    return [plot_curves(Path(out) / name, [(x, copies * rec.column(column), label, "o-")],
+    whole = "" if copies == 1 else f" (whole part, {copies} x the model)"
+    return [plot_curves(Path(out) / name, [(x, rec.column(column), label, "o-")],
                         xlabel, ylabel or f"{label} [N]", title + whole)]
 
 

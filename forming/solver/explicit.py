@@ -26,7 +26,7 @@ from dolfinx import fem, la  # noqa: I001
 from dolfinx.fem.petsc import assemble_matrix
 from mpi4py import MPI
 
-from forming import compat  # noqa: F401
+from forming import compat, signals  # noqa: F401
 from forming.errors import InputError, KernelFailure
 from forming.model import Model
 from forming.solver.base import StepResult
@@ -34,6 +34,8 @@ from forming.solver.options import ExplicitOptions
 from forming.solver.stepping import StepControl
 
 log = logging.getLogger(__name__)
+
+_CHECK_EVERY = 64  # increments between collective checks for a stop request
 
 
 def body_density(body) -> float:
@@ -373,9 +375,19 @@ class ExplicitSolver:
                 n_left = math.ceil((tau_end - self.tau) / self.dt - 1e-9)
                 dt = (tau_end - self.tau) / max(n_left, 1)
                 self._increment(dt)
-                if not all(np.all(np.isfinite(st.v)) for st in self.states):
-                    ok, reason = False, "velocities not finite (unstable time step)"
+                if self.time_steps % _CHECK_EVERY:
+                    continue
+                # collective, so that every rank stops at the same increment
+                finite = all(np.all(np.isfinite(st.v)) for st in self.states)
+                code = self.comm.allreduce(2 * int(not finite)
+                                           + int(signals.requested() is not None), op=MPI.MAX)
+                if code:
+                    ok = False
+                    reason = ("velocities not finite (unstable time step)" if code >= 2
+                              else "interrupted")
                     break
+            if ok and not all(np.all(np.isfinite(st.v)) for st in self.states):
+                ok, reason = False, "velocities not finite (unstable time step)"
         except KernelFailure as exc:
             ok, reason = False, f"point kernel failed: {exc}"
         ok = self.comm.allreduce(ok, op=MPI.LAND)

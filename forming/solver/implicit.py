@@ -12,7 +12,7 @@ from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_resi
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from forming import compat  # noqa: F401
+from forming import compat, signals  # noqa: F401
 from forming.errors import InputError, KernelFailure
 from forming.model import Model
 from forming.solver.base import StepResult
@@ -130,6 +130,8 @@ class ImplicitSolver:
     def _residual(self, snes, x, b) -> None:
         t0 = time.perf_counter()
         failure = self._update_materials(x)
+        if failure is None and signals.requested() is not None:
+            failure = "interrupted"  # abandon the step: the lifecycle rolls it back
         # collective decision: a rank that skipped assembly would leave the others waiting
         # in the ghost exchange
         if self.model.comm.allreduce(failure is not None, op=MPI.LOR):
