@@ -1,0 +1,163 @@
+"""Runs that survive interrupts, kills, failing case code, used folders and MPI errors."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import REPO, block_scene, history, run_mpi
+
+from forming.errors import EXIT_CODES, InputError
+from forming.fields import FieldSeries
+from forming.job import Job
+from forming.materials.library import honeycomb_core
+from forming.run import simulate
+
+LONG_RUN = ["cases/hemisphere.py", "--set", "cells=8,8,2", "--set", "blank_holder=true"]
+
+
+def _start(out: Path) -> subprocess.Popen:
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    return subprocess.Popen([sys.executable, *LONG_RUN, "--out", str(out)], cwd=REPO, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _wait_for_rows(proc: subprocess.Popen, out: Path, rows: int, timeout: float = 120) -> None:
+    """Wait until the run has written ``rows`` history rows (and is still running)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        path = out / "history.csv"
+        if path.is_file() and len(path.read_text().splitlines()) > rows:
+            return
+        if proc.poll() is not None:
+            pytest.fail(f"run ended early: {proc.stderr.read()[-2000:]}")
+        time.sleep(0.2)
+    proc.kill()
+    pytest.fail("the run wrote no history in time")
+
+
+def _final_shape_matches_fields(out: Path) -> None:
+    """The last displacement in the ParaView file is the one of final_shape.npz."""
+    series = FieldSeries(out / "displacement.bp")
+    X, u = series.points(), series.values("u")
+    order = np.lexsort(np.round(X, 9).T[::-1])
+    with np.load(out / "final_shape.npz") as z:
+        np.testing.assert_allclose(X[order], z["core_X"], atol=1e-9)
+        np.testing.assert_array_equal(u[order], z["core_u"])
+    h = history(out)
+    assert series.times[-1] == pytest.approx(h["t"][-1], abs=1e-12)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_stop_signal_ends_the_run_cleanly(tmp_path, sig):
+    """SIGINT (Ctrl-C) and SIGTERM (a scheduler's stop) mid-run: status interrupted with the
+    stroke reached, exit code 130 / 143, the last converged state in the fields, history
+    and final shape, and the plots of the partial run.
+
+    A failure means PETSc's handler took the signal (error 73, status failed), or the run
+    died without closing its output.
+    """
+    proc = _start(tmp_path)
+    _wait_for_rows(proc, tmp_path, 4)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    name = signal.Signals(sig).name
+    assert proc.returncode == EXIT_CODES[name], err[-2000:]
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["status"] == "interrupted" and s["signal"] == name
+    assert "stroke" in s["reason"] and 0 < s["load_parameter_reached"] < 1
+    h = history(tmp_path)
+    assert h["t"][-1] == s["load_parameter_reached"] and h["step"][-1] == s["timing"]["steps"]
+    _final_shape_matches_fields(tmp_path)
+    assert (tmp_path / "punch_force.png").is_file()
+
+
+def test_a_killed_run_is_recognisable(tmp_path):
+    """SIGKILL cannot be caught: summary.json still says running (written at the start,
+    with the command line), and history.csv holds whole rows (written atomically)."""
+    proc = _start(tmp_path)
+    _wait_for_rows(proc, tmp_path, 3)
+    proc.kill()
+    proc.communicate(timeout=60)
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["status"] == "running"
+    assert "hemisphere.py" in s["run"]["command"] and s["run"]["started"]
+    h = history(tmp_path)
+    assert len(h) >= 3 and np.all(np.isfinite(h["force_punch_z_N"]))
+
+
+def test_a_case_metric_that_raises_fails_the_run_but_keeps_it(tmp_path):
+    """An exception in a case's metrics: status failed with the exception in the reason,
+    and the converged fields, history and final shape on disk."""
+    def broken(rec, model):
+        raise ZeroDivisionError("metric divides by zero")
+
+    job = Job(scene=block_scene(honeycomb_core("isotropic")), metrics=broken)
+    s = simulate(job, tmp_path, "broken", {})
+    assert s["status"] == "failed"
+    assert "metrics raised ZeroDivisionError: metric divides by zero" in s["reason"]
+    assert s["load_parameter_reached"] == 1.0
+    assert json.loads((tmp_path / "summary.json").read_text())["status"] == "failed"
+    assert (tmp_path / "final_shape.npz").is_file() and len(history(tmp_path)) > 1
+
+
+def test_a_rerun_clears_the_earlier_run_and_a_foreign_folder_is_refused(tmp_path):
+    """A run into a folder with an earlier run replaces its files (no stale PNG or field
+    stays); a non-empty folder that holds no run, or a file, is refused by name."""
+    job = Job(scene=block_scene(honeycomb_core("isotropic")))
+    (tmp_path / "run").mkdir()
+    simulate(job, tmp_path / "run", "first", {})
+    stale = tmp_path / "run" / "stale_plot.png"
+    stale.write_bytes(b"old")
+    s = simulate(job, tmp_path / "run", "second", {})
+    assert s["case"] == "second" and not stale.exists()
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["case"] == "second"
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("my data")
+    with pytest.raises(InputError, match="holds no earlier run"):
+        simulate(job, tmp_path / "mine", "third", {})
+    assert (tmp_path / "mine" / "notes.txt").read_text() == "my data"
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(InputError, match="is a file"):
+        simulate(job, tmp_path / "afile", "fourth", {})
+
+
+@pytest.mark.mpi
+def test_two_ranks_bad_output_path_exits_promptly(tmp_path):
+    """mpirun -n 2 with --out naming a file: every rank ends, within 30 s, with the
+    bad-input exit code and a message naming the path (it used to hang rank 1)."""
+    target = tmp_path / "afile"
+    target.write_text("x")
+    proc = run_mpi(["cases/core_tension.py", "--out", str(target)], timeout=30)
+    assert proc.returncode == EXIT_CODES["input"], proc.stderr[-2000:]
+    assert f"{target} is a file" in proc.stderr
+
+
+@pytest.mark.mpi
+def test_two_ranks_error_on_one_rank_exits_promptly(tmp_path):
+    """An error raised on rank 1 only (a case that cannot read its input there) ends
+    both ranks within 30 s with the bad-input exit code."""
+    script = tmp_path / "one_rank.py"
+    script.write_text(
+        "import dataclasses, sys\n"
+        "from mpi4py import MPI\n"
+        "from forming.case import main\n"
+        "from forming.errors import InputError\n"
+        "@dataclasses.dataclass(frozen=True)\n"
+        "class Params:\n"
+        "    size: float = 1.0  # size\n"
+        "def build(p):\n"
+        "    if MPI.COMM_WORLD.rank == 1:\n"
+        "        raise InputError('curve', 'cannot read the curve on rank 1')\n"
+        "    MPI.COMM_WORLD.barrier()  # rank 0 would wait here for ever\n"
+        "main(build, Params, 'one_rank')\n")
+    proc = run_mpi([str(script), "--out", str(tmp_path / "out")], timeout=30)
+    assert proc.returncode == EXIT_CODES["input"], proc.stderr[-2000:]
+    assert "cannot read the curve on rank 1" in proc.stderr
