@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from forming import post
-from forming.case import main
+from forming.case import main, require
 from forming.errors import InputError
 from forming.fixtures import bias_extension_shear
 from forming.job import Job
@@ -47,10 +47,11 @@ class Params:
 
 
 def build(p: Params) -> Job:
+    require(p, positive=("width", "thickness", "element"))
     if p.aspect < 2.0:
-        raise InputError("aspect", f"must be >= 2 for a central pure-shear zone, got {p.aspect}")
+        raise InputError("--set aspect", f"must be >= 2 (central shear zone), got {p.aspect}")
     if not 0.0 < p.shear_target_deg < 70.0:
-        raise InputError("shear_target_deg", f"must lie in (0, 70), got {p.shear_target_deg}")
+        raise InputError("--set shear_target_deg", f"must lie in (0, 70), got {p.shear_target_deg}")
     length = p.aspect * p.width
     D = length - p.width
     g = math.radians(p.shear_target_deg)

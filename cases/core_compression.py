@@ -17,7 +17,8 @@ from typing import Literal
 import numpy as np
 
 from forming import post
-from forming.case import main
+from forming.case import main, require
+from forming.errors import InputError
 from forming.job import Job, Response
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
@@ -31,7 +32,7 @@ from forming.solver.stepping import StepControl
 class Params:
     """Parameters of the C365 compression case (mm, MPa)."""
 
-    width: float = 50.0  # specimen side [mm] (quarter of a 2 x width square)
+    width: float = 50.0  # specimen side [mm]
     thickness: float = 20.0  # core thickness [mm]
     cells: tuple[int, ...] = (2, 2, 4)  # elements along x, y, z
     strain: float = 0.9  # nominal strain reached (0 < strain < 1)
@@ -39,10 +40,16 @@ class Params:
     curve: str | None = None  # C365 curve CSV; none: shipped estimate
     max_step: float = 0.05  # largest load step (fraction of the stroke)
     linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
+    extrapolate: bool = False  # allow strains past the curve's last point
 
 
 def build(p: Params) -> Job:
+    require(p, positive=("width", "thickness"), fraction=("strain",))
     material = honeycomb_core(p.elasticity, curve=p.curve)
+    if p.strain > material.curve.strain[-1] and not p.extrapolate:
+        raise InputError("--set strain", f"{p.strain:g} passes the last point of the curve "
+                         f"({material.curve.strain[-1]:g}, {material.curve.source}); give a "
+                         "longer curve, or --set extrapolate=true")
     mesh = box((p.width, p.width, p.thickness), tuple(p.cells))
     area = p.width**2
     stroke = p.strain * p.thickness
@@ -84,10 +91,10 @@ def build(p: Params) -> Job:
 
     def plots(rec, out: Path) -> list[Path]:
         e, s = nominal(rec)
-        grid = np.linspace(0, p.strain, 400)
+        grid = np.linspace(0, min(p.strain, curve.strain[-1]), 400)  # the data, not beyond
         return [plot_curves(
             out / "stress_strain.png",
-            [(grid, curve.interpolate(grid), "input curve (C365)", "k-"),
+            [(grid, curve.interpolate(grid), f"input curve ({Path(curve.source).name})", "k-"),
              (e, s, "computed (forming)", "o")],
             "nominal strain", "nominal stress [MPa]", "Core through-thickness compression",
         )]
@@ -98,6 +105,7 @@ def build(p: Params) -> Job:
         newton=NewtonOptions(linear_solver=p.linear_solver),
         metrics=metrics, plots=plots,
         response=Response("reaction_top_z_N", stroke, -1.0, "platen force"),
+        limits=(("curve_rmse_rel", 0.01),),  # the virtual test reproduces its input
     )
 
 

@@ -25,7 +25,7 @@ import numpy as np
 import ufl
 
 from forming import post
-from forming.case import main
+from forming.case import main, require
 from forming.contact.shapes import Plane, RoundedBox
 from forming.errors import InputError
 from forming.job import Job, Response
@@ -58,11 +58,14 @@ class Params:
 
 
 def build(p: Params) -> Job:
+    require(p, positive=("size", "thickness", "punch", "stroke"),
+            nonnegative=("gap", "friction", "fillet"))
+    if p.punch > p.size or p.stroke >= p.thickness:
+        raise InputError("--set punch" if p.punch > p.size else "--set stroke",
+                         "the punch must fit the core and the stroke stay below its thickness")
     half, h = p.size / 2, p.thickness
     mesh = box((half, half, h), tuple(p.cells))
     tall = 100.0
-    if p.gap < 0:
-        raise InputError("gap", f"must be >= 0 (initial clearance), got {p.gap}")
     punch = RoundedBox((0.0, 0.0, h + p.gap + tall), (p.punch / 2, p.punch / 2, tall), p.fillet)
     scene = Scene(
         name="core_crushing", mesh=mesh,

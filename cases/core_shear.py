@@ -15,7 +15,7 @@ from typing import Literal
 
 import numpy as np
 
-from forming.case import main
+from forming.case import main, require
 from forming.job import Job
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
@@ -45,6 +45,7 @@ class Params:
 
 
 def build(p: Params) -> Job:
+    require(p, positive=("length", "width", "thickness", "shear_strain"))
     material = honeycomb_core(p.elasticity)
     mesh = box((p.length, p.width, p.thickness), tuple(p.cells))
     slide = p.shear_strain * p.thickness

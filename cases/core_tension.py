@@ -16,7 +16,7 @@ from typing import Literal
 import numpy as np
 
 from forming import post
-from forming.case import main
+from forming.case import main, require
 from forming.job import Job
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
@@ -43,6 +43,7 @@ class Params:
 
 
 def build(p: Params) -> Job:
+    require(p, positive=("length", "width", "thickness", "strain"))
     material = honeycomb_core(p.elasticity)
     longitudinal = p.direction == "longitudinal"
     size = (p.length, p.width, p.thickness) if longitudinal else (p.width, p.length,

@@ -12,7 +12,6 @@ within about 2% of the rate-independent force (docs/validation.md).
 ``--set skins=true``: the full sandwich, a core between two FCIM359 NCF skins (+/-45 deg,
 0.4 mm per ply) sliding on the core (0.52) and on the tools (0.23); the metrics add each
 skin's shear range, the area beyond the wrinkling angles (+42 / -50 deg) and the slip.
-
 Run: ``python cases/hemisphere.py --set blank_holder=true`` (add ``skins=true``).
 """
 
@@ -24,7 +23,8 @@ from typing import Literal
 
 from forming import post
 from forming.blanks import SKINS, Skins, rectangular_blank
-from forming.case import main
+from forming.case import main, require
+from forming.errors import InputError
 from forming.job import Job, Response
 from forming.materials.fabric import NonCrimpFabric
 from forming.materials.library import honeycomb_core
@@ -68,6 +68,11 @@ class Params:
 
 
 def build(p: Params) -> Job:
+    require(p, positive=("size", "thickness", "punch_diameter", "die_diameter", "stroke"),
+            nonnegative=("friction", "edge_radius", "skin_friction", "tool_skin_friction"))
+    if p.punch_diameter >= p.die_diameter:
+        raise InputError("--set punch_diameter", f"{p.punch_diameter:g} mm does not pass the "
+                         f"{p.die_diameter:g} mm die opening")
     half, R = p.size / 2, p.punch_diameter / 2
     skins = Skins(NonCrimpFabric(thickness=p.skin_thickness), p.plies, p.skin_friction,
                   p.skin_stabilisation, p.skin_smoothing) if p.skins else None

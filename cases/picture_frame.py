@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from forming import post
-from forming.case import main
+from forming.case import main, require
 from forming.errors import InputError
 from forming.fixtures import frame_gradient, frame_gradient_rate
 from forming.job import Job
@@ -46,8 +46,9 @@ class Params:
 
 
 def build(p: Params) -> Job:
+    require(p, positive=("side", "thickness"))
     if not 0.0 < p.shear_max_deg < 80.0:
-        raise InputError("shear_max_deg", f"must lie in (0, 80), got {p.shear_max_deg}")
+        raise InputError("--set shear_max_deg", f"must lie in (0, 80), got {p.shear_max_deg}")
     curve = ShearCurve.from_csv(p.curve) if p.curve else ShearCurve.default()
     fabric = NonCrimpFabric(thickness=p.thickness, fibre_angles_deg=(0.0, 90.0), shear=curve)
     g_max = math.radians(p.shear_max_deg)

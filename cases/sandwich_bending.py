@@ -25,7 +25,7 @@ from typing import Literal
 
 from forming import post
 from forming.blanks import sandwich
-from forming.case import main
+from forming.case import main, require
 from forming.contact.shapes import Roller
 from forming.errors import InputError
 from forming.job import Job
@@ -62,13 +62,10 @@ class Params:
 
 
 def build(p: Params) -> Job:
-    for name in ("span", "width", "core_thickness", "deflection", "roller_radius"):
-        if not getattr(p, name) > 0:
-            raise InputError(name, f"must be positive, got {getattr(p, name)}")
-    if p.overhang < 0:
-        raise InputError("overhang", f"must be >= 0, got {p.overhang}")
+    require(p, positive=("span", "width", "core_thickness", "deflection", "roller_radius"),
+            nonnegative=("overhang", "friction", "tool_friction"))
     if len(p.fibre_angles) != 2:
-        raise InputError("fibre_angles", f"needs two angles, got {p.fibre_angles}")
+        raise InputError("--set fibre_angles", f"needs two angles, got {p.fibre_angles}")
     half = p.span / 2 + p.overhang
     mesh = sandwich_blank(Outline.rectangle(half, p.width / 2), core_thickness=p.core_thickness,
                           skin_thickness=p.skin_thickness, plies=1, element_size=p.element,

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from forming.case import main
+from forming.case import main, require
 from forming.errors import InputError
 from forming.job import Job
 from forming.materials.fabric import NonCrimpFabric
@@ -48,12 +48,9 @@ class Params:
 
 
 def build(p: Params) -> Job:
-    if not p.pressure > 0:
-        raise InputError("pressure", f"must be positive, got {p.pressure}")
-    if not p.drag > 0:
-        raise InputError("drag", f"must be positive, got {p.drag}")
+    require(p, positive=("pressure", "drag", "length", "width"), nonnegative=("friction",))
     if p.steps < 2:
-        raise InputError("steps", f"must be >= 2, got {p.steps}")
+        raise InputError("--set steps", f"must be >= 2, got {p.steps}")
     mesh = sandwich_blank(Outline.rectangle(p.length, p.width), core_thickness=p.core_thickness,
                           skin_thickness=p.skin_thickness, plies=1, element_size=p.element,
                           core_layers=2)

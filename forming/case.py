@@ -11,6 +11,7 @@ import argparse
 import dataclasses
 import importlib.util
 import logging
+import math
 import sys
 import types
 import typing
@@ -47,10 +48,38 @@ def _convert(name: str, text: str, hint) -> object:
         raise InputError(name, f"must be true or false, got {text!r}")
     if hint in (int, float):
         try:
-            return hint(text)
+            value = hint(text)
         except ValueError as exc:
             raise InputError(name, f"must be {hint.__name__}, got {text!r}") from exc
+        if hint is float and not math.isfinite(value):
+            raise InputError(name, f"must be a finite number, got {text!r}")
+        return value
     return text
+
+
+def require(params, positive: tuple[str, ...] = (), nonnegative: tuple[str, ...] = (),
+            fraction: tuple[str, ...] = ()) -> None:
+    """Refuse parameter values that cannot mean anything, naming the ``--set`` key.
+
+    Args:
+        params: A case's parameters.
+        positive: Names that must be > 0 (sizes, strokes, strains).
+        nonnegative: Names that must be >= 0 (clearances, friction).
+        fraction: Names that must lie strictly between 0 and 1 (a nominal strain).
+
+    Raises:
+        InputError: The first offending parameter.
+    """
+    for name in positive:
+        if not getattr(params, name) > 0:
+            raise InputError(f"--set {name}", f"must be > 0, got {getattr(params, name)}")
+    for name in nonnegative:
+        if not getattr(params, name) >= 0:
+            raise InputError(f"--set {name}", f"must be >= 0, got {getattr(params, name)}")
+    for name in fraction:
+        if not 0 < getattr(params, name) < 1:
+            raise InputError(f"--set {name}",
+                             f"must lie between 0 and 1, got {getattr(params, name)}")
 
 
 def parse_params(params_cls: type, assignments: list[str], prefix: str = "") -> object:
@@ -152,7 +181,15 @@ def prepare_case(name: str, assignments: list[str], build=None, params_cls=None)
         build, params_cls = module.build, module.Params
     choice, explicit, rest = split_solver_settings(assignments)
     params = parse_params(params_cls, rest)
-    job = apply_solver_settings(build(params), choice, explicit)
+    try:
+        job = build(params)
+    except InputError as exc:
+        if exc.field.startswith("--set"):
+            raise
+        given = " ".join(f"--set {a}" for a in rest) or "its defaults"
+        raise InputError(exc.field, f"{str(exc).split(': ', 1)[-1]} (building case {name} "
+                         f"with {given})") from exc
+    job = apply_solver_settings(job, choice, explicit)
     return job, dataclasses.asdict(params)
 
 
@@ -188,11 +225,15 @@ def apply_petsc_args(extra: list[str]) -> None:
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--out`` and ``--set`` options of a case run."""
+    """``--out``, ``--set`` and ``--quiet`` options of a case run."""
     parser.add_argument("--out", type=Path, default=None,
-                        help="output folder (default results/<case>)")
+                        help="output folder (default results/<case>); a folder holding an "
+                             "earlier run is cleared of its files first, a non-empty folder "
+                             "without a run is refused")
     parser.add_argument("--set", dest="assignments", action="append", default=[],
-                        metavar="KEY=VALUE", help="override a case parameter (repeatable)")
+                        metavar="KEY=VALUE", help="set a case parameter (repeatable)")
+    parser.add_argument("--quiet", action="store_true",
+                        help="warnings and errors only, no progress line")
 
 
 def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
@@ -208,7 +249,7 @@ def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
 
     from forming.log import setup
 
-    setup()
+    setup(quiet=getattr(args, "quiet", False))
     comm = MPI.COMM_WORLD
     try:
         apply_petsc_args(extra)
@@ -252,8 +293,13 @@ def _report(name: str, summary: dict, out: Path) -> None:
 
 
 def main(build, params_cls, name: str) -> None:
-    """Entry point at the bottom of a case script."""
-    parser = argparse.ArgumentParser(description=f"forming case {name}")
+    """Entry point at the bottom of a case script (``python cases/NAME.py --help``)."""
+    from forming.casedoc import case_help
+
+    module = sys.modules.get(build.__module__)
+    parser = argparse.ArgumentParser(
+        prog=f"{name}.py", formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=case_help(name, getattr(module, "__doc__", None) or "", params_cls))
     add_run_arguments(parser)
     args, extra = parser.parse_known_args()
     raise SystemExit(execute(name, args, extra, build, params_cls))

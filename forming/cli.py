@@ -1,8 +1,10 @@
-"""Command line.
+"""The ``forming`` command: run a case, compare its solvers, list the cases.
 
-``forming run CASE --out DIR --set key=value [-petsc_option value ...]`` runs a case;
-``forming compare CASE --out DIR --set key=value`` runs it with the implicit and the
-explicit solver and writes a comparison report (:mod:`forming.compare`).
+forming list                               the cases, one line each
+forming run CASE [--out DIR] [--set KEY=VALUE ...] [-forming_<petsc_option> VALUE]
+forming run CASE --help                    every parameter of CASE
+forming compare CASE [--out DIR] [--set KEY=VALUE ...] [--reuse]
+forming --version
 """
 
 from __future__ import annotations
@@ -12,9 +14,58 @@ import logging
 import sys
 from pathlib import Path
 
-from forming.case import add_run_arguments, execute
+from forming.case import REPO, add_run_arguments, execute
 
 log = logging.getLogger("forming")
+
+DESCRIPTION = """\
+Process simulation of press-formed sandwich panels (fabric skins on a crushable
+honeycomb core between rigid tools): implicit Newton or explicit dynamics on DOLFINx.
+
+commands:
+  list       the cases, one line each
+  run        run a case: forming run CASE --set KEY=VALUE (forming run CASE --help)
+  compare    run a case with both solvers and compare them
+
+exit codes: 0 completed, 1 failed solve, 2 bad input, 3 file or folder error,
+4 internal error, 130 interrupted (SIGINT), 143 stopped (SIGTERM).
+"""
+
+
+def _version() -> str:
+    from forming import __version__
+    from forming.provenance import git_commit
+
+    git = git_commit()
+    where = "" if git["commit"] is None else (
+        f" (git {git['commit'][:12]}{', modified' if git['dirty'] else ''})")
+    return f"forming {__version__}{where}"
+
+
+def _list() -> int:
+    from forming.casedoc import case_list
+
+    cases = case_list(REPO / "cases")
+    width = max(len(n) for n, _ in cases)
+    for name, line in cases:
+        print(f"{name:<{width}}  {line}")
+    return 0
+
+
+def _case_help(command: str, name: str) -> int:
+    from forming.case import find_case, load_case
+    from forming.casedoc import case_help
+    from forming.errors import InputError
+
+    try:
+        find_case(name)
+        module = load_case(name)
+    except InputError as exc:
+        print(f"forming: {exc}", file=sys.stderr)
+        return 2
+    print(f"usage: forming {command} {name} [--out DIR] [--set KEY=VALUE ...] [--quiet]\n")
+    print(case_help(name, module.__doc__ or "", module.Params))
+    return 0
 
 
 def _compare(args: argparse.Namespace, extra: list[str]) -> int:
@@ -25,7 +76,7 @@ def _compare(args: argparse.Namespace, extra: list[str]) -> int:
     from forming.errors import InputError
     from forming.log import setup
 
-    setup()
+    setup(quiet=args.quiet)
     comm = MPI.COMM_WORLD
     out = args.out or Path("results") / f"{args.case}_compare"
     try:
@@ -49,18 +100,27 @@ def _compare(args: argparse.Namespace, extra: list[str]) -> int:
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``forming`` command."""
-    parser = argparse.ArgumentParser(prog="forming", description=__doc__,
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # forming run CASE --help: the case's own parameters, not the generic options
+    if (len(argv) >= 2 and argv[0] in ("run", "compare") and not argv[1].startswith("-")
+            and {"-h", "--help"} & set(argv[2:])):
+        raise SystemExit(_case_help(argv[0], argv[1]))
+    parser = argparse.ArgumentParser(prog="forming", description=DESCRIPTION,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = parser.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="run a case script from cases/")
-    run.add_argument("case", help="case name, e.g. core_compression")
+    parser.add_argument("--version", action="version", version=_version())
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub.add_parser("list", help="the cases, one line each")
+    run = sub.add_parser("run", help="run a case (forming run CASE --help: its parameters)")
+    run.add_argument("case", help="case name (forming list)")
     add_run_arguments(run)
     cmp_ = sub.add_parser("compare", help="run a case with both solvers and compare them")
-    cmp_.add_argument("case", help="case name, e.g. core_crushing")
+    cmp_.add_argument("case", help="case name (forming list)")
     add_run_arguments(cmp_)
     cmp_.add_argument("--reuse", action="store_true",
                       help="compare the runs already in --out again (nothing is run)")
-    args, extra = parser.parse_known_args(argv if argv is not None else sys.argv[1:])
+    args, extra = parser.parse_known_args(argv)
+    if args.command == "list":
+        raise SystemExit(_list())
     if args.command == "run":
         raise SystemExit(execute(args.case, args, extra))
     raise SystemExit(_compare(args, extra))

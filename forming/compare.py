@@ -255,6 +255,13 @@ def _fmt(v) -> str:
     return str(v)
 
 
+def _checks(validity: dict) -> str:
+    """The failed checks of both runs, or "all pass"."""
+    failed = [f"{run}: {name}" for run, checks in validity.items()
+              for name, ok in checks.items() if not ok]
+    return "failed: " + "; ".join(failed) if failed else "all pass"
+
+
 def _report(out: Path, case: str, result: dict, shared, pngs: list[Path],
             assignments: list[str]) -> Path:
     r, tg = result, result["targets"]
@@ -273,6 +280,9 @@ def _report(out: Path, case: str, result: dict, shared, pngs: list[Path],
         f"{_fmt(r['energy_balance_error_rel'] <= tg['energy_balance'])} |",
         f"| explicit quasi-static (KE/IE max {r['kinetic_to_internal_max']:.2%}) | "
         f"{_fmt(r['explicit_quasi_static'])} | yes | {_fmt(r['explicit_quasi_static'])} |",
+        f"| each run's own checks ({_checks(r['validity'])}) | implicit "
+        f"{_fmt(r['valid_implicit'])}, explicit {_fmt(r['valid_explicit'])} | yes | "
+        f"{_fmt(r['valid_implicit'] and r['valid_explicit'])} |",
         "", "| | implicit | explicit | difference |", "|---|---|---|---|",
         f"| status | {r['status_implicit']} | {r['status_explicit']} | |",
         f"| peak force [N] | {r['peak_force_implicit_N']:.5g} | {r['peak_force_explicit_N']:.5g}"
@@ -362,8 +372,13 @@ def compare(case: str, out: Path, assignments: list[str], targets: Targets = Tar
         }
         shared = _shared_metrics(imp.summary["metrics"], em)
         result["metrics"] = {k: {"implicit": v, "explicit": w} for k, v, w in shared}
+        result["valid_implicit"] = bool(imp.summary.get("valid", True))
+        result["valid_explicit"] = bool(exp.summary.get("valid", True))
+        result["validity"] = {"implicit": imp.summary.get("validity", {}),
+                              "explicit": exp.summary.get("validity", {})}
         result["meets_targets"] = bool(
             result["status_implicit"] == result["status_explicit"] == "completed"
+            and result["valid_implicit"] and result["valid_explicit"]
             and result["explicit_quasi_static"]
             and result["force_rms_diff_rel"] <= targets.force_rms
             and result["shape_rms_diff_rel_thickness"] <= targets.shape_rms

@@ -19,6 +19,30 @@ import dolfinx.fem.petsc  # noqa: E402,F401
 import dolfinx.io  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
+
+def _python_signal_handling() -> None:
+    """Give signals back to Python.
+
+    PETSc's handler (installed when PETSc starts) turns Ctrl-C into error 73 inside a
+    solve and a closed pipe (``| head``) into an abort. Python's defaults come back:
+    KeyboardInterrupt, SIGPIPE ignored; runs install their own stop handler
+    (:mod:`forming.signals`).
+    """
+    import signal
+
+    try:
+        PETSc.Sys.popSignalHandler()
+    except (PETSc.Error, AttributeError):
+        return
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGPIPE, signal.SIG_IGN)
+
+
+try:
+    _python_signal_handling()
+except ValueError:  # imported outside the main thread: nothing to change
+    pass
+
 REQUIRED = (0, 11)
 _ver = tuple(int(x) for x in dolfinx.__version__.split(".")[:2])
 if _ver != REQUIRED:

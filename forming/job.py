@@ -69,6 +69,9 @@ class Job:
         travel: Travel of the load programme at load parameter 1 [mm] (the ``stroke_mm``
             history column, progress and messages); None: the largest tool or
             prescribed-displacement travel of the scene (:meth:`travel_mm`).
+        limits: ``(metric, bound)`` pairs: the run's answer is valid only if each metric
+            stays at or below its bound (e.g. a virtual test's curve error); reported in
+            ``summary.json`` ``validity`` with the solver's own checks.
     """
 
     scene: Scene
@@ -83,6 +86,7 @@ class Job:
     explicit: ExplicitOptions = field(default_factory=ExplicitOptions)
     response: Response | None = None
     travel: float | None = None
+    limits: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         if self.field_every < 1:

@@ -316,5 +316,19 @@ class Model:
         return row
 
     def warnings(self) -> list[str]:
-        """Warnings every constraint raised so far."""
-        return [w for c in self.constraints for w in c.warnings()]
+        """What the bodies and constraints have to warn about (collective)."""
+        out = [w for b in self.bodies.values() for w in b.warnings()]
+        out += [f"contact {c.name}: friction {c.friction:g} is above 1 (the measured pairs lie "
+                "between 0.23 and 0.57, docs/materials.md)"
+                for c in self.constraints if c.friction > 1.0]
+        return out + [w for c in self.constraints for w in c.warnings()]
+
+    def overlaps(self) -> list[str]:
+        """Tools that overlap the blank beyond their tolerance in the current state."""
+        out = []
+        for c in self.contacts:
+            depth = c.penetration()
+            if depth > c.tolerance:
+                out.append(f"tool {c.name} overlaps {c.spec.body} by {depth:.3g} mm "
+                           f"(tolerance {c.tolerance:.3g} mm)")
+        return out

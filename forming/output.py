@@ -34,7 +34,7 @@ def _replacing(path: Path):
 
 
 def json_safe(value):
-    """JSON-safe copy (NaN/inf as strings, numpy scalars as Python numbers)."""
+    """JSON-safe copy (NaN/inf as null, numpy scalars as Python numbers)."""
     if isinstance(value, dict):
         return {str(k): json_safe(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
@@ -42,7 +42,7 @@ def json_safe(value):
     if isinstance(value, np.generic):
         value = value.item()
     if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
+        return None
     return value
 
 

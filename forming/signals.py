@@ -1,8 +1,9 @@
 """Stop requests: SIGINT and SIGTERM end a run cleanly at its next safe point.
 
 PETSc installs its own signal handler when it starts, which swallows Ctrl-C inside a
-solve and leaves the solver in an error state (PETSc error 73). :func:`catch_stops`
-removes PETSc's handler and installs one that only records the request; the solvers
+solve and leaves the solver in an error state (PETSc error 73); :mod:`forming.compat`
+removes it. :func:`catch_stops` installs a handler that only records the request; the
+solvers
 check it in their callbacks (a Newton step in progress is abandoned and rolled back) and
 the step lifecycle between steps, so the run stops at the last converged state, writes
 its output and says ``interrupted`` (docs/architecture.md).
@@ -59,20 +60,13 @@ def catch_stops() -> Iterator[None]:
     The previous Python handlers come back afterwards. Only the main thread can install
     handlers; elsewhere the block changes nothing.
     """
-    from petsc4py import PETSc
-
-    from forming import compat  # noqa: F401  (PETSc initialised the right way)
+    from forming import compat  # noqa: F401  (removes PETSc's own handler)
 
     try:
         previous = {s: signal.signal(s, _record) for s in STOP_SIGNALS}
     except ValueError:  # not the main thread
         yield
         return
-    with contextlib.suppress(PETSc.Error, AttributeError):
-        PETSc.Sys.popSignalHandler()
-    # PETSc's pop restores the default disposition: install ours again on top of it
-    for s in STOP_SIGNALS:
-        signal.signal(s, _record)
     try:
         yield
     finally:

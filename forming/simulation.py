@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from forming import compat, provenance, signals
+from forming.errors import InputError
 from forming.history import STROKE, force_column, merge, reaction_column, whole_part
 from forming.job import Job
 from forming.log import Progress
@@ -73,6 +74,10 @@ class Simulation:
         self.parameters = dict(parameters or {})
         self.comm = job.scene.mesh.mesh.comm
         self.model = Model(job.scene)
+        self.model.set_load(0.0)
+        if overlaps := self.model.overlaps():
+            raise InputError("tools", "; ".join(overlaps) + " at the start: move the tool or "
+                             "the blank")
         self.solver = make_solver(job, self.model)
         self.stepper = Stepper(self.solver.step_control(job.steps))
         self.jit_s = time.perf_counter() - self._t_start
@@ -298,12 +303,21 @@ class Simulation:
             self.write_fields()
         self.recorder.close()
         job, model, comm, rec = self.job, self.model, self.comm, self.recorder
-        metrics = self._hook("metrics", job.metrics, rec, model) or {}
+        metrics, notes = _numbers(self._hook("metrics", job.metrics, rec, model) or {})
         metrics |= self.solver.metrics()
+        warnings = model.warnings() + self.solver.warnings()
+        for w in warnings:
+            log.warning("%s", w)
+        validity = self.solver.validity() | {
+            f"{name} <= {bound:g}": metrics.get(name) is not None and metrics[name] <= bound
+            for name, bound in job.limits}
         bodies = list(model.bodies.values())
         summary = self._header() | {
             "metrics": metrics,
-            "warnings": model.warnings(),
+            "metric_notes": notes,
+            "valid": all(validity.values()),
+            "validity": validity,
+            "warnings": warnings,
             "timing": {
                 "wall_s": time.perf_counter() - self._t_start, "jit_s": self.jit_s,
                 "steps": self.stepper.n_accepted, "rejected_steps": self.stepper.n_rejected,
@@ -332,3 +346,15 @@ class Simulation:
         rec.write_summary(summary)
         self._finished = summary
         return summary
+
+
+def _numbers(metrics: dict) -> tuple[dict, dict[str, str]]:
+    """Metrics with every non-finite number replaced by None, and a note saying why."""
+    out, notes = {}, {}
+    for key, value in metrics.items():
+        if isinstance(value, float | np.floating) and not np.isfinite(value):
+            out[key] = None
+            notes[key] = f"not defined for this run (computed {value})"
+        else:
+            out[key] = value
+    return out, notes

@@ -118,7 +118,7 @@ def test_case_parameters_out_of_range(tmp_path):
     for case, assignment, field in (("core_crushing", "gap=-1", "gap"),
                                     ("picture_frame", "shear_max_deg=85", "shear_max_deg"),
                                     ("bias_extension", "aspect=1.5", "aspect")):
-        with pytest.raises(InputError, match=rf"^{field}: "):
+        with pytest.raises(InputError, match=rf"^--set {field}: "):
             run_case(case, tmp_path / case, [assignment])
     with pytest.raises(InputError, match=r"newton.force_rtol|solver.force_rtol"):
         NewtonOptions(force_rtol=-1.0)

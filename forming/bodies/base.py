@@ -86,6 +86,9 @@ class DeformableBody(Protocol):
     def min_det_F(self) -> float:
         """Smallest Jacobian determinant over all ranks."""
 
+    def warnings(self) -> list[str]:
+        """What a user should know about the run's use of this body (collective)."""
+
 
 class BodyBase:
     """The members every body shares: spaces, cells, kinematics, displacement state.
@@ -137,6 +140,10 @@ class BodyBase:
         """Return to a snapshot."""
         self.u.x.array[:] = snap[0]
         self.invalidate()
+
+    def warnings(self) -> list[str]:
+        """None by default."""
+        return []
 
     def nodal_coordinates(self) -> np.ndarray:
         """Reference coordinates of the owned displacement nodes, (n, 3)."""

@@ -217,6 +217,24 @@ class SolidBody(BodyBase):
         per_cell = values.reshape(len(self.cells), -1)[: self.n_local_cells]
         return per_cell.mean(axis=1)
 
+    def warnings(self) -> list[str]:
+        """A crushing strain beyond the last point of the material's curve (collective).
+
+        The hardening law is extrapolated past the curve's last point; a run that gets
+        there depends on an extrapolation nobody measured.
+        """
+        table = getattr(self.material, "hardening", None)
+        if self.plastic is None or table is None:
+            return []
+        reached = self.mesh.comm.allreduce(float(self.plastic.evp.max(initial=0.0)), op=MPI.MAX)
+        last = float(table.evp[-1])
+        if reached <= last * (1 + 1e-9):
+            return []
+        curve = self.material.curve
+        return [f"body {self.name}: volumetric plastic strain {reached:.3g} passed the last "
+                f"point of its compression curve ({last:.3g}, nominal strain "
+                f"{curve.strain[-1]:g}, from {curve.source}): the hardening was extrapolated"]
+
     def volumetric_plastic_strain(self) -> np.ndarray | None:
         """Converged volumetric plastic strain per quadrature point (None if elastic)."""
         return None if self.plastic is None else self.plastic.evp

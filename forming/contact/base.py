@@ -22,12 +22,14 @@ class Constraint(Protocol):
         bodies: Names of the bodies it acts on.
         tolerance: Admissible constraint violation [mm].
         penalty: Penalty [N/mm^3].
+        friction: Coulomb coefficient (0: frictionless).
     """
 
     name: str
     bodies: tuple[str, ...]
     tolerance: float
     penalty: float
+    friction: float
 
     def residuals(self, tests: dict) -> dict[str, ufl.Form]:
         """Virtual work of its tractions on each of its bodies, tested with ``tests[name]``."""

@@ -99,3 +99,9 @@ class Solver(Protocol):
 
     def parameters(self) -> dict:
         """Its settings, recorded in ``summary.json`` parameters."""
+
+    def validity(self) -> dict[str, bool]:
+        """Checks that the run's answer means what it should (e.g. quasi-static)."""
+
+    def warnings(self) -> list[str]:
+        """What a user should know about the run (collective)."""

@@ -36,6 +36,7 @@ from forming.solver.stepping import StepControl
 log = logging.getLogger(__name__)
 
 _CHECK_EVERY = 64  # increments between collective checks for a stop request
+MASS_ADDED_LIMIT = 0.05  # added mass above which a run is flagged (fraction of the mass)
 
 
 def body_density(body) -> float:
@@ -482,3 +483,21 @@ class ExplicitSolver:
     def parameters(self) -> dict:
         """The explicit settings the run used."""
         return {"explicit": asdict(self.options)}
+
+    def validity(self) -> dict[str, bool]:
+        """Quasi-static (kinetic below the limit of internal energy), little added mass."""
+        return {"quasi_static": self._ke_ie_max <= self.options.quasi_static_limit,
+                "mass_added_below_limit": self.mass_added_fraction <= MASS_ADDED_LIMIT}
+
+    def warnings(self) -> list[str]:
+        """A run that is not quasi-static, or that added much mass."""
+        out = []
+        if self._ke_ie_max > self.options.quasi_static_limit:
+            out.append(f"explicit: kinetic energy reached {self._ke_ie_max:.1%} of the internal"
+                       f" energy (quasi-static limit {self.options.quasi_static_limit:.0%}): "
+                       "inertia distorts the answer; lengthen explicit.loading_time")
+        if self.mass_added_fraction > MASS_ADDED_LIMIT:
+            out.append(f"explicit: mass scaling added {self.mass_added_fraction:.1%} of the "
+                       f"mass (above {MASS_ADDED_LIMIT:.0%}); raise explicit.loading_time or "
+                       "lower explicit.target_time_step")
+        return out

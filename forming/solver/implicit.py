@@ -286,3 +286,11 @@ class ImplicitSolver:
     def parameters(self) -> dict:
         """Nothing beyond the case's parameters."""
         return {}
+
+    def validity(self) -> dict[str, bool]:
+        """Every accepted step is an equilibrium: nothing more to check."""
+        return {}
+
+    def warnings(self) -> list[str]:
+        """None."""
+        return []
