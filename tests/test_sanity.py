@@ -8,7 +8,7 @@ import json
 import pytest
 from helpers import block_scene
 
-from forming.case import run_case
+from forming.case import prepare_case, run_case
 from forming.compare import compare
 from forming.contact.shapes import Plane
 from forming.errors import InputError
@@ -16,6 +16,7 @@ from forming.job import Job
 from forming.materials.library import honeycomb_core
 from forming.run import simulate
 from forming.scene import Contact, Tool
+from forming.simulation import Simulation
 
 COARSE = ["cells=4,4,2", "stroke=1.5"]
 
@@ -60,10 +61,13 @@ def test_a_tool_inside_the_blank_at_the_start_is_refused(tmp_path):
 
 
 def test_friction_above_one_completes_with_a_warning(tmp_path):
-    """Friction 1.5 is accepted (a user may want it) but flagged in summary.json."""
-    s = run_case("core_crushing", tmp_path, ["cells=4,4,2", "stroke=0.5", "friction=1.5"])
-    assert s["status"] == "completed"
-    assert any("friction 1.5 is above 1" in w for w in s["warnings"])
+    """Friction 1.5 is accepted (a user may want it) but flagged in summary.json (two
+    steps of the sled, then stopped)."""
+    sim = Simulation(prepare_case("skin_sled", ["friction=1.5"])[0], tmp_path, "sled")
+    sim.step()
+    s = sim.finish()
+    assert s["status"] == "stopped"
+    assert any("interface_top: friction 1.5 is above 1" in w for w in s["warnings"])
 
 
 def test_a_fast_explicit_run_is_flagged_not_quasi_static(tmp_path):
