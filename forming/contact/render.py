@@ -293,6 +293,10 @@ def render_3d(path: Path, grid: pyvista.UnstructuredGrid, scalars: str,
             if surface.n_points:
                 plotter.add_mesh(surface, color="grey", opacity=0.35)
         plotter.add_title(title, font_size=12, color="black")
+        # orientation triad and the body's extent in mm: a reader can tell x from y
+        plotter.add_axes(color="black", xlabel="x", ylabel="y", zlabel="z")
+        plotter.show_bounds(mesh=grid, xtitle="x [mm]", ytitle="y [mm]", ztitle="z [mm]",
+                            color="black", font_size=10, location="outer", ticks="outside")
         if view == "xy":
             plotter.view_xy()
         else:

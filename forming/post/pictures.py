@@ -118,7 +118,8 @@ def plastic_strain_pictures(model, out, section: str, title: str, tools_3d=None)
     in_plane = (0, 2) if axis == 1 else (1, 2)
     sec = section_polygons(body, body.domain.facet_tags, md.facet_tag_ids(section)[0], in_plane,
                            evp)
-    grid = deformed_grid(body, {"volumetric_plastic_strain": evp})
+    bar = "volumetric plastic strain [-]"
+    grid = deformed_grid(body, {bar: evp})
     bounds, resolution = model.tool_bounds(), model.tool_resolution()  # collective
     if model.comm.rank != 0:
         return []
@@ -128,10 +129,10 @@ def plastic_strain_pictures(model, out, section: str, title: str, tools_3d=None)
              if tools_3d is None or tl.name in tools_3d]
     return [
         section_plot(out / "section_plastic_strain.png", sec[0], sec[1], tools,
-                     (axis, 0.0), in_plane, label="volumetric plastic strain",
-                     title=f"{title}: section {'xy'[axis]} = 0", mirror=True),
-        render_3d(out / "plastic_strain_3d.png", grid, "volumetric_plastic_strain", shown,
-                  bounds, resolution, title=title),
+                     (axis, 0.0), in_plane, label=bar,
+                     title=f"{title}: section {'xy'[axis]} = 0 (mirrored)", mirror=True),
+        render_3d(out / "plastic_strain_3d.png", grid, bar, shown, bounds, resolution,
+                  title=title + _modelled(model)),
     ]
 
 
@@ -159,4 +160,13 @@ def shear_angle_picture(model, out, title: str, name: str = "shear_angle.png",
         return []
     lim = max(abs(lo), abs(hi), 1e-6)
     return [render_3d(Path(out) / name, grid, "shear angle [deg]", [], (0, 1, 0, 1, 0, 1), 1.0,
-                      title=title, clim=(-lim, lim), view="xy", cmap="coolwarm")]
+                      title=title + _modelled(model), clim=(-lim, lim), view="xy",
+                      cmap="coolwarm")]
+
+
+def _modelled(model) -> str:
+    """What part of the component a picture shows (a symmetric model's share)."""
+    copies = model.scene.symmetry_copies
+    share = {1: "", 2: "half", 4: "quarter", 8: "eighth"}[copies]
+    return f"\n(the modelled {share}: the whole part is {copies} copies by symmetry)" if share \
+        else ""
