@@ -8,7 +8,7 @@ the punch and negligible in-plane draw-in of the core edge.
 
 The shipped core curve softens after its peak (0.40 to 0.25 MPa); without regularisation
 Newton stalls there, as the crushing localises. A small viscous regularisation
-(``viscosity``, 0.003 MPa by default, docs/theory.md) carries it through; the eta study in
+(``viscosity``, 0.03 MPa mm by default, docs/theory.md) carries it through; the eta study in
 docs/validation.md measures what it adds to the force. ``gap`` starts the punch above the
 core (first contact inside a load step).
 
@@ -52,7 +52,7 @@ class Params:
     cells: tuple[int, ...] = (8, 8, 6)  # elements along x, y, z of the quarter model
     elasticity: Literal["transverse", "isotropic"] = "transverse"  # core elasticity
     curve: str | None = None  # C365 curve CSV; none: shipped estimate
-    viscosity: float = 0.003  # viscous regularisation [MPa per unit load]
+    viscosity: float = 0.03  # viscous regularisation [MPa mm] (docs/theory.md)
     max_step: float = 0.1  # largest load step (fraction of the stroke)
     linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
 

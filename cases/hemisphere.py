@@ -6,7 +6,7 @@ blank holder (``--set blank_holder=true``). Quarter model; figures are for the w
 core. The paper's finding: without a holder the core conforms mainly by bending with
 little crushing; with one, crushing under the punch increases. The die and holder edge
 radii (10 mm) are estimates. The core is isotropic (the paper's Abaqus form); a small
-viscous regularisation (``viscosity``, 0.003 MPa) lets Newton follow the softening curve,
+viscous regularisation (``viscosity``, 0.15 MPa mm) lets Newton follow the softening curve,
 within about 2% of the rate-independent force (docs/validation.md).
 
 ``--set skins=true``: the full sandwich, a core between two FCIM359 NCF skins (+/-45 deg,
@@ -54,7 +54,7 @@ class Params:
     grading: float = 1.08  # in-plane element growth away from the centre (core alone)
     elasticity: Literal["transverse", "isotropic"] = "isotropic"  # core elasticity
     curve: str | None = None  # C365 curve CSV; none: shipped estimate
-    viscosity: float = 0.003  # viscous regularisation [MPa per unit load]
+    viscosity: float = 0.15  # viscous regularisation [MPa mm] (docs/theory.md)
     max_step: float = 0.01  # largest load step (fraction of the stroke)
     min_step: float = 1e-4  # smallest load step
     linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver

@@ -13,6 +13,7 @@ import importlib.util
 import logging
 import math
 import sys
+import time
 import types
 import typing
 from pathlib import Path
@@ -269,12 +270,24 @@ def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
     return EXIT_CODES["completed"] if summary["status"] == "completed" else EXIT_CODES["failed"]
 
 
-def end_with_error(comm, kind: str, message: str) -> int:
-    """Report an error; under MPI end every rank (it may have been raised on one only)."""
+def end_with_error(comm, kind: str, message: str, wait: float = 2.0) -> int:
+    """Report an error and return its exit code; under MPI make sure every rank ends.
+
+    An error found by every rank (a collective check) ends each rank normally. One
+    raised on some ranks only would leave the others waiting in a collective: if not
+    every rank reaches this point within ``wait`` seconds, ``MPI_Abort`` ends them all.
+    """
     log.error("%s", message)
+    for handler in logging.getLogger("forming").handlers:
+        handler.flush()
     code = EXIT_CODES[kind]
     if comm.size > 1:
-        comm.Abort(code)
+        request = comm.Ibarrier()
+        end = time.monotonic() + wait
+        while not request.Test():
+            if time.monotonic() > end:
+                comm.Abort(code)
+            time.sleep(0.01)
     return code
 
 

@@ -66,9 +66,6 @@ class Job:
         explicit: Settings of the explicit solver.
         response: The run's force-travel curve; None: the first tool's z force (or the
             first reaction) against the travel.
-        travel: Travel of the load programme at load parameter 1 [mm] (the ``stroke_mm``
-            history column, progress and messages); None: the largest tool or
-            prescribed-displacement travel of the scene (:meth:`travel_mm`).
         limits: ``(metric, bound)`` pairs: the run's answer is valid only if each metric
             stays at or below its bound (e.g. a virtual test's curve error); reported in
             ``summary.json`` ``validity`` with the solver's own checks.
@@ -85,29 +82,15 @@ class Job:
     solver: Literal["implicit", "explicit"] = "implicit"
     explicit: ExplicitOptions = field(default_factory=ExplicitOptions)
     response: Response | None = None
-    travel: float | None = None
     limits: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         if self.field_every < 1:
             raise InputError("job.field_every", f"must be >= 1, got {self.field_every}")
-        if self.travel is not None and not (np.isfinite(self.travel) and self.travel > 0):
-            raise InputError("job.travel", f"must be a positive length [mm], got {self.travel}")
 
     def travel_mm(self) -> float | None:
-        """Travel at load parameter 1 [mm]: the job's, else the scene's largest.
-
-        The scene's is the largest displacement at ``t = 1`` of a tool, or else of a
-        prescribed face (None when neither moves, e.g. an affine fixture).
-        """
-        if self.travel is not None:
-            return self.travel
-        moves = [float(np.linalg.norm(t.offset(1.0))) for t in self.scene.tools]
-        if not any(moves):
-            moves = [abs(d.value(c, 1.0)) for d in self.scene.displacements
-                     if hasattr(d, "value") for c, _p in d.components()]
-        largest = max(moves, default=0.0)
-        return largest if largest > 0 else None
+        """Travel at load parameter 1 [mm] (:meth:`forming.scene.Scene.travel_mm`)."""
+        return self.scene.travel_mm()
 
     def response_or_default(self) -> Response:
         """The job's response (a missing scale is 1), or a default one.

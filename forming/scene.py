@@ -317,6 +317,10 @@ class Scene:
         symmetry_copies: How many copies of the modelled part make the whole part (4
             for a quarter model with two symmetry planes). Whole-part forces, volumes
             and plots multiply by it; it is declared here once.
+        travel: Travel of the load programme at load parameter 1 [mm] (the stroke); None:
+            the largest travel of a tool or a prescribed face (:meth:`travel_mm`). It
+            gives the history's ``stroke_mm`` column and the physical unit of a viscous
+            regularisation (per mm of travel).
     """
 
     name: str
@@ -329,9 +333,27 @@ class Scene:
     interfaces: tuple[Interface, ...] = ()
     quadrature_degree: int | None = None
     symmetry_copies: int = 1
+    travel: float | None = None
     metadata: dict = field(default_factory=dict, compare=False)
 
+    def travel_mm(self) -> float | None:
+        """Travel at load parameter 1 [mm]: the declared one, else the scene's largest.
+
+        The scene's is the largest displacement at ``t = 1`` of a tool, or else of a
+        prescribed face (None when neither moves, e.g. an affine fixture).
+        """
+        if self.travel is not None:
+            return self.travel
+        moves = [float(np.linalg.norm(t.offset(1.0))) for t in self.tools]
+        if not any(moves):
+            moves = [abs(d.value(c, 1.0)) for d in self.displacements
+                     if isinstance(d, Displacement) for c, _p in d.components()]
+        largest = max(moves, default=0.0)
+        return largest if largest > 0 else None
+
     def __post_init__(self) -> None:
+        if self.travel is not None and not (math.isfinite(self.travel) and self.travel > 0):
+            raise InputError("scene.travel", f"must be a positive length [mm], got {self.travel}")
         if self.symmetry_copies not in (1, 2, 4, 8):
             raise InputError("scene.symmetry_copies",
                              f"must be 1, 2, 4 or 8, got {self.symmetry_copies!r}")

@@ -97,7 +97,7 @@ def _sled(tmp, mu: float, drag: bool, tolerance=None, stick="augmented"):
         body = model.body
         x = body.V.tabulate_dof_coordinates()
         sole = np.isclose(x[:, 2], 0.0)
-        rel = body.u.x.array.reshape(-1, 3)[sole, :2] - model.contacts[0].offset.value[:2]
+        rel = body.u.x.array.reshape(-1, 3)[sole, :2] - model.contacts[0].tool_offset()[:2]
         return {"sole_slip_mean_mm": float(np.abs(rel.mean(axis=0)).max()),
                 "sole_slip_max_mm": float(np.abs(rel).max(initial=0.0))}
 

@@ -161,3 +161,11 @@ def test_history_and_summary_agree_for_a_quarter_model(tmp_path):
     assert job.response_or_default().scale == 1.0
     fixed = dataclasses.replace(job, response=Response("force_punch_z_N", 3.0, -1.0))
     assert fixed.response_or_default().scale == -1.0
+
+
+def test_default_response_is_the_recorded_reaction_against_the_travel():
+    """A scene without tools compares its first recorded reaction, against the travel of
+    its prescribed face (the block's top moves 2 mm: travel 2 mm)."""
+    job = Job(scene=block_scene(honeycomb_core("isotropic")))
+    r = job.response_or_default()
+    assert (r.column, r.travel, r.scale) == ("reaction_top_z_N", 2.0, 1.0)

@@ -19,7 +19,7 @@ from mpi4py import MPI
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
 from forming.bodies.base import BodyBase
 from forming.domain import BodyDomain
-from forming.errors import KernelFailure
+from forming.errors import InputError, KernelFailure
 from forming.kinematics import mandel_contract, mandel_to_tensor, tensor_to_mandel
 from forming.materials.solids import PointMaterial, evaluate
 from forming.scene import Body, Scene
@@ -95,6 +95,10 @@ class SolidBody(BodyBase):
                                            name="volumetric_plastic_strain")
         self._evaluated_at: np.ndarray | None = None
         self._has_tangent = False
+        self.travel = scene.travel_mm() or 1.0  # mm per unit load parameter
+        if getattr(self.material, "viscosity", 0.0) > 0 and scene.travel_mm() is None:
+            raise InputError("material.viscosity", "a viscous regularisation is per mm of "
+                             "travel, and nothing in the scene moves: give Scene.travel")
         self._warm_kernel()
 
     def _warm_kernel(self) -> None:
@@ -143,6 +147,7 @@ class SolidBody(BodyBase):
         res = evaluate(
             self.material, cm, None if ps is None else ps.ep, None if ps is None else ps.evp,
             want_tangent=want_tangent, load_increment=self.load_increment, frozen=frozen,
+            travel=self.travel,
         )
         self.kernel_seconds += time.perf_counter() - t0
         if res.n_failed:

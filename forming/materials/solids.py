@@ -74,11 +74,14 @@ def evaluate(
     h: float = 1e-6,
     load_increment: float = 0.0,
     frozen: bool = False,
+    travel: float = 1.0,
 ) -> PointResult:
     """Evaluate a point material at right Cauchy-Green tensors ``cmats`` (n, 9).
 
-    ``load_increment`` (the step in the load parameter) scales the viscous
-    regularisation of a foam with ``viscosity > 0``; it is ignored otherwise.
+    ``load_increment`` (the step in the load parameter) and ``travel`` (the travel of
+    the load programme per unit load parameter [mm]) scale the viscous regularisation of
+    a foam with ``viscosity > 0`` (in MPa mm: per mm of travel); they are ignored
+    otherwise.
     ``frozen`` evaluates a plastic material elastically about its plastic state ``ep_n``
     (the stiffness of elastic unloading, which sets the explicit stable time step):
     :func:`~forming.materials.kernels.foam_frozen_points`, no return mapping, and
@@ -101,7 +104,7 @@ def evaluate(
         return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad),
                            int(worst))
     props = k.props
-    eta = getattr(material, "viscosity", 0.0)
+    eta = getattr(material, "viscosity", 0.0) / travel  # per unit load parameter
     if eta > 0.0 and load_increment > 0.0:
         props = props.copy()
         props[PROP_VISC] = eta / load_increment
@@ -191,10 +194,11 @@ class CrushableFoam:
         kt: Ratio of hydrostatic tension to initial hydrostatic compression yield stress.
         strain_measure: ``"hencky"`` (logarithmic), ``"biot"``, or ``"biot-hencky"``
             (Biot in principal extension, Hencky in principal compression).
-        viscosity: Viscous regularisation eta [MPa per unit load parameter]: the return
-            mapping solves ``f = eta * dgamma / dt`` (Duvaut-Lions overstress), which
-            keeps Newton on a unique path through softening; 0 (default) is
-            rate-independent, as the paper's core.
+        viscosity: Viscous regularisation eta [MPa mm]: the return mapping solves
+            ``f = eta * dgamma / ds`` with ``ds`` the step's travel of the tools [mm]
+            (Duvaut-Lions overstress along the stroke, independent of the stroke's
+            length), which keeps Newton on a unique path through softening; 0 (default)
+            is rate-independent, as the paper's core.
         density: Mass density [tonne/mm^3] (explicit dynamics only; None: not given).
     """
 

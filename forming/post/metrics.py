@@ -98,11 +98,16 @@ def plastic_strain_max(body) -> float:
 
 
 def plastic_strain_extremes(body) -> dict[str, float]:
-    """Largest compaction and dilation of the cell-mean volumetric plastic strain."""
+    """Largest compaction and dilation of the volumetric plastic strain at a point.
+
+    Point values, like the pointwise means of :class:`PlasticStrainField`: a mean over a
+    region can then never exceed the maximum (cell means could, where compaction and
+    dilation share a cell).
+    """
     comm = body.mesh.comm
-    cell_evp = body.cell_average(body.plastic.evp)
-    return {"crushing_strain_max": global_max(comm, cell_evp, initial=0.0),
-            "dilation_strain_max": -global_min(comm, cell_evp, initial=0.0)}
+    evp = body.plastic.evp
+    return {"crushing_strain_max": global_max(comm, evp, initial=0.0),
+            "dilation_strain_max": -global_min(comm, evp, initial=0.0)}
 
 
 def nodal_gap_max(contact, where: Callable[[np.ndarray], np.ndarray]) -> float:
