@@ -82,24 +82,55 @@ def body_taylor(model: Model, u0: np.ndarray, seed: int = 0):
     return taylor_slopes(residual, jac @ delta, u0, delta, eps)
 
 
-def solver_taylor(solver, model: Model, seed: int = 0):
-    """Taylor slopes of an implicit solver's own residual and Jacobian (all blocks).
-
-    Random free displacements around zero; prescribed dofs stay at their (zero) values,
-    where the lifted residual is the true residual.
-    """
-    x, b = solver.unknowns(), solver.unknowns()
-    n = x.getLocalSize()
+def block_offsets(model: Model) -> dict[str, int]:
+    """Offset of every body's block in the implicit solver's unknowns (serial layout)."""
     offsets, o = {}, 0
     for name in model.names:
         offsets[name] = o
         o += model.bodies[name].V.dofmap.index_map.size_local * 3
+    return offsets
+
+
+def free_mask(model: Model, n: int) -> np.ndarray:
+    """True on the unknowns without a prescribed displacement (``n`` unknowns)."""
+    offsets = block_offsets(model)
     free = np.ones(n, dtype=bool)
     for bc, name in zip(model.dirichlet.bcs, model.dirichlet.bc_bodies, strict=True):
         idx, n_owned = bc.dof_indices()
         free[offsets[name] + np.asarray(idx)[:n_owned]] = False
+    return free
+
+
+def block_vector(model: Model, fields: dict[str, Callable[[np.ndarray], np.ndarray]]
+                 ) -> np.ndarray:
+    """Unknowns with the displacement ``fields[name](X)`` ((n, 3) at the reference
+    coordinates X of body ``name``'s nodes) on the named bodies and zero elsewhere."""
+    offsets = block_offsets(model)
+    size = sum(b.V.dofmap.index_map.size_local * 3 for b in model.bodies.values())
+    x = np.zeros(size)
+    for name, field in fields.items():
+        V = model.bodies[name].V
+        n = V.dofmap.index_map.size_local
+        X = V.tabulate_dof_coordinates()[:n]
+        x[offsets[name]:offsets[name] + 3 * n] = np.asarray(field(X), dtype=float).ravel()
+    return x
+
+
+def solver_taylor(solver, model: Model, seed: int = 0, base: np.ndarray | None = None):
+    """Taylor slopes of an implicit solver's own residual and Jacobian (all blocks).
+
+    At ``base`` (default zero) plus random free displacements of 1e-3 mm; prescribed
+    dofs stay at their (zero) values, where the lifted residual is the true residual.
+    The model is left at that state, so a caller can read its outputs there.
+    """
+    x, b = solver.unknowns(), solver.unknowns()
+    n = x.getLocalSize()
+    free = free_mask(model, n)
     rng = np.random.default_rng(seed)
-    x0 = rng.normal(size=n) * 1e-3 * free
+    x0 = rng.normal(size=n) * 1e-3
+    if base is not None:
+        x0 = x0 + base
+    x0 = x0 * free
 
     def residual(xa):
         x.array[:] = xa
@@ -113,8 +144,21 @@ def solver_taylor(solver, model: Model, seed: int = 0):
     d.array[:] = rng.normal(size=n) * 1e-3 * free
     jd = A.createVecLeft()
     A.mult(d, jd)
-    return taylor_slopes(residual, jd.array.copy(), x0, d.array.copy(),
-                         np.array([4e-2, 2e-2, 1e-2, 5e-3]))
+    slopes = taylor_slopes(residual, jd.array.copy(), x0, d.array.copy(),
+                           np.array([4e-2, 2e-2, 1e-2, 5e-3]))
+    residual(x0)
+    return slopes
+
+
+def block_taylor(model: Model, t: float, seed: int = 0, base: np.ndarray | None = None):
+    """Taylor slopes of the implicit solver's block residual and Jacobian at load ``t``
+    (see :func:`solver_taylor`)."""
+    from forming.solver.implicit import ImplicitSolver
+    from forming.solver.options import NewtonOptions
+
+    solver = ImplicitSolver(model, NewtonOptions())
+    model.set_load(t)
+    return solver_taylor(solver, model, seed, base)
 
 
 def block_scene(material, clamped: bool = False, cells=(2, 2, 2),

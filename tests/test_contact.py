@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import punch_footprint_force
+from helpers import block_taylor, punch_footprint_force
 
 from forming.case import run_case
 from forming.contact.shapes import NUMPY, AnnularPlate, HemisphericalPunch, Plane, RoundedBox
@@ -267,14 +267,31 @@ def test_hemisphere_holder_increases_crushing_default_mesh(tmp_path):
 @pytest.mark.parametrize("t", [0.01, 0.5])
 def test_elastic_slip_contact_jacobian_taylor(t):
     """Slopes 1 and 2 of the Taylor remainders of a block pressed onto a moving table with
-    the elastic-slip stick law: table moved 0.05 mm (within the elastic slip: sticking)
-    or 2.5 mm (sliding), at a perturbed state with nodes open and closed.
+    the elastic-slip stick law: table moved 0.05 mm (within the elastic slip, 0.005 x
+    12.5 mm = 0.0625 mm: sticking) or 2.5 mm (sliding), at a perturbed state with nodes
+    open and closed.
+
+    The state is checked from public outputs: the sole's nodal gaps take both signs (at
+    least 5 of the 45 nodes each way), and the sole's displacement relative to the table
+    (the slip of the step) is below 0.9 of the elastic slip at every node (t = 0.01) or
+    above 10 times it (t = 0.5).
 
     A second-remainder slope of 1 would mean the pressure-dependent stick stiffness
     (mu p / s_el) or the slip direction is not differentiated consistently.
     """
-    from test_interfaces import _block_taylor
-
-    s1, s2 = _block_taylor(Model(_sled_scene(0.36, True, stick="elastic_slip")), t=t)
+    model = Model(_sled_scene(0.36, True, stick="elastic_slip"))
+    s1, s2 = block_taylor(model, t=t)
     assert np.all(np.abs(s1 - 1.0) < 0.1), s1
     assert np.all(s2 > 1.9), s2
+    contact = model.contacts[0]
+    gap, _x = contact.nodal_gap()
+    assert np.count_nonzero(gap < 0.0) >= 5 and np.count_nonzero(gap > 0.0) >= 5, gap
+    body = model.body
+    sole = np.isclose(body.V.tabulate_dof_coordinates()[:, 2], 0.0)
+    rel = body.u.x.array.reshape(-1, 3)[sole, :2] - contact.tool_offset()[:2]
+    slip = np.linalg.norm(rel, axis=1)
+    assert contact.elastic_slip == pytest.approx(0.0625)
+    if t < 0.1:
+        assert np.all(slip < 0.9 * contact.elastic_slip), slip
+    else:
+        assert np.all(slip > 10 * contact.elastic_slip), slip
