@@ -90,21 +90,31 @@ def test_skin_sled_two_ranks_matches_serial(tmp_path):
         serial["metrics"]["friction_ratio"], rel=1e-8)
 
 
-def test_sandwich_bending_between_bonded_and_frictionless(tmp_path):
-    """Three-point bending, coarse strip: the frictional sandwich is softer than the
-    bonded one and stiffer than the frictionless one, and its skins slip at the ends."""
+def test_sandwich_bending_frictional_softer_than_bonded(tmp_path):
+    """Three-point bending, coarse strip, bonded against frictional skins (both with the
+    case's elastic-slip stick law on the rollers, so only the interface differs).
+
+    The frictional sandwich is less than half as stiff as the bonded one: composite
+    action needs a skin force M / d = P L / (4 d) = 3.8 P at mid-span (span 160 mm,
+    skin centres 10.4 mm apart), while friction can pass into a skin at most mu times
+    the interface's normal force, about the roller force P: 0.52 P (measured ratio
+    0.10). Its skins slip at the strip's ends (more than 0.1 mm; measured 0.93 mm), the
+    bonded ones do not (below 1 um).
+
+    The frictionless variant is not compared: the case gives it the augmented stick law
+    on the rollers (its skins have an almost free trellis mode otherwise), so its
+    stiffness would mix two effects (frictional and frictionless differ by 5%).
+    """
     common = ["element=10", "core_layers=2", "deflection=8", "max_step=0.1"]
-    k = {}
-    for kind in ("bonded", "frictional", "frictionless"):
+    m = {}
+    for kind in ("bonded", "frictional"):
         s = run_case("sandwich_bending", tmp_path / kind, common + [f"interface={kind}"])
         assert s["status"] == "completed", (kind, s["reason"])
-        k[kind] = s["metrics"]["stiffness_N_per_mm"]
-        if kind == "frictional":
-            end_slip = s["metrics"]["end_slip_mm"]
-        if kind == "bonded":
-            assert s["metrics"]["end_slip_mm"] < 1e-3
-    assert k["bonded"] > k["frictional"] > k["frictionless"]
-    assert end_slip > 0.1
+        m[kind] = s["metrics"]
+    k = {kind: m[kind]["stiffness_N_per_mm"] for kind in m}
+    assert 0.0 < k["frictional"] < 0.5 * k["bonded"], k
+    assert m["bonded"]["end_slip_mm"] < 1e-3
+    assert m["frictional"]["end_slip_mm"] > 0.1
 
 
 def test_hemisphere_skins_with_holder_full_stroke(tmp_path):
