@@ -144,7 +144,11 @@ def test_friction_sled_slides_at_mu(tmp_path, mu, stick):
 
 
 def test_friction_sled_sticks_below_the_limit(tmp_path):
-    """Half the friction limit: the sled's sole does not slip (to the 1e-5 mm tolerance)."""
+    """Half the friction limit: the table carries the whole shear load (equilibrium, 1e-6)
+    and the sled does not slide: the sole's mean slip stays below 1e-4 mm (ten times the
+    1e-5 mm contact tolerance; measured 3e-5 mm) and no node slips more than 1e-3 mm
+    (measured 3e-4 mm, at the trailing edge that the load's overturning moment unloads),
+    against 5 mm of sliding in the drag test."""
     s, h = _sled(tmp_path, 0.36, drag=False, tolerance=1e-5)
     assert s["status"] == "completed"
     ratio = h["force_table_x_N"][-1] / h["force_table_z_N"][-1]
