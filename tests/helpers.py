@@ -84,24 +84,55 @@ def body_taylor(model: Model, u0: np.ndarray, seed: int = 0):
     return taylor_slopes(residual, jac @ delta, u0, delta, eps)
 
 
-def solver_taylor(solver, model: Model, seed: int = 0):
-    """Taylor slopes of an implicit solver's own residual and Jacobian (all blocks).
-
-    Random free displacements around zero; prescribed dofs stay at their (zero) values,
-    where the lifted residual is the true residual.
-    """
-    x, b = solver.unknowns(), solver.unknowns()
-    n = x.getLocalSize()
+def block_offsets(model: Model) -> dict[str, int]:
+    """Offset of every body's block in the implicit solver's unknowns (serial layout)."""
     offsets, o = {}, 0
     for name in model.names:
         offsets[name] = o
         o += model.bodies[name].V.dofmap.index_map.size_local * 3
+    return offsets
+
+
+def free_mask(model: Model, n: int) -> np.ndarray:
+    """True on the unknowns without a prescribed displacement (``n`` unknowns)."""
+    offsets = block_offsets(model)
     free = np.ones(n, dtype=bool)
     for bc, name in zip(model.dirichlet.bcs, model.dirichlet.bc_bodies, strict=True):
         idx, n_owned = bc.dof_indices()
         free[offsets[name] + np.asarray(idx)[:n_owned]] = False
+    return free
+
+
+def block_vector(model: Model, fields: dict[str, Callable[[np.ndarray], np.ndarray]]
+                 ) -> np.ndarray:
+    """Unknowns with the displacement ``fields[name](X)`` ((n, 3) at the reference
+    coordinates X of body ``name``'s nodes) on the named bodies and zero elsewhere."""
+    offsets = block_offsets(model)
+    size = sum(b.V.dofmap.index_map.size_local * 3 for b in model.bodies.values())
+    x = np.zeros(size)
+    for name, field in fields.items():
+        V = model.bodies[name].V
+        n = V.dofmap.index_map.size_local
+        X = V.tabulate_dof_coordinates()[:n]
+        x[offsets[name]:offsets[name] + 3 * n] = np.asarray(field(X), dtype=float).ravel()
+    return x
+
+
+def solver_taylor(solver, model: Model, seed: int = 0, base: np.ndarray | None = None):
+    """Taylor slopes of an implicit solver's own residual and Jacobian (all blocks).
+
+    At ``base`` (default zero) plus random free displacements of 1e-3 mm; prescribed
+    dofs stay at their (zero) values, where the lifted residual is the true residual.
+    The model is left at that state, so a caller can read its outputs there.
+    """
+    x, b = solver.unknowns(), solver.unknowns()
+    n = x.getLocalSize()
+    free = free_mask(model, n)
     rng = np.random.default_rng(seed)
-    x0 = rng.normal(size=n) * 1e-3 * free
+    x0 = rng.normal(size=n) * 1e-3
+    if base is not None:
+        x0 = x0 + base
+    x0 = x0 * free
 
     def residual(xa):
         x.array[:] = xa
@@ -115,8 +146,21 @@ def solver_taylor(solver, model: Model, seed: int = 0):
     d.array[:] = rng.normal(size=n) * 1e-3 * free
     jd = A.createVecLeft()
     A.mult(d, jd)
-    return taylor_slopes(residual, jd.array.copy(), x0, d.array.copy(),
-                         np.array([4e-2, 2e-2, 1e-2, 5e-3]))
+    slopes = taylor_slopes(residual, jd.array.copy(), x0, d.array.copy(),
+                           np.array([4e-2, 2e-2, 1e-2, 5e-3]))
+    residual(x0)
+    return slopes
+
+
+def block_taylor(model: Model, t: float, seed: int = 0, base: np.ndarray | None = None):
+    """Taylor slopes of the implicit solver's block residual and Jacobian at load ``t``
+    (see :func:`solver_taylor`)."""
+    from forming.solver.implicit import ImplicitSolver
+    from forming.solver.options import NewtonOptions
+
+    solver = ImplicitSolver(model, NewtonOptions())
+    model.set_load(t)
+    return solver_taylor(solver, model, seed, base)
 
 
 def block_scene(material, clamped: bool = False, cells=(2, 2, 2),
@@ -136,3 +180,43 @@ def block_scene(material, clamped: bool = False, cells=(2, 2, 2),
             Displacement("core", "xmin", x=0.0, reaction=False),
             Displacement("core", "ymin", y=0.0, reaction=False))),
     )
+
+
+def punch_footprint_area(stroke: float, half: float = 40.0, fillet: float = 20.0) -> float:
+    """Plan area [mm^2] of a core's top face that a square punch with filleted edges has
+    reached after ``stroke`` [mm] (the whole punch, not a quarter).
+
+    The punch (``RoundedBox``) is its flat square of side ``2 (half - fillet)`` grown by
+    a quarter-round of radius ``fillet``; the fillet dips to the core's face within
+    ``w = sqrt(fillet^2 - (fillet - stroke)^2)`` of the flat, so the footprint is the
+    flat square grown by ``w``: ``flat^2 + 4 flat w + pi w^2``.
+    """
+    d = min(max(stroke, 0.0), fillet)
+    w = np.sqrt(fillet**2 - (fillet - d) ** 2)
+    flat = 2.0 * (half - fillet)
+    return flat**2 + 4.0 * flat * w + np.pi * w**2
+
+
+def punch_footprint_force(strain: np.ndarray, stress: np.ndarray, stroke: float,
+                          thickness: float = 20.0, half: float = 40.0, fillet: float = 20.0,
+                          n: int = 400) -> float:
+    """Punch force [N] of a core crushed as independent columns (the whole punch).
+
+    Each column under the punch is compressed to the nominal strain ``depth /
+    thickness``, the depth being the stroke less the fillet's height above the flat
+    there, and carries the nominal stress of the uniaxial curve (``strain``,
+    ``stress``) at that strain. This is the core's own response for a column that
+    neither spreads (zero Poisson ratios) nor drags its neighbours (in-plane modulus
+    0.2 MPa against 15 MPa through the thickness); it leaves out the transverse shear
+    of the core at the footprint's edge and friction. Midpoint rule on an ``n x n``
+    grid over a quarter of the punch.
+    """
+    flat = half - fillet
+    x = (np.arange(n) + 0.5) / n * half
+    gx, gy = np.meshgrid(x, x)
+    rho = np.hypot(np.maximum(gx - flat, 0.0), np.maximum(gy - flat, 0.0))
+    rise = np.where(rho < fillet, fillet - np.sqrt(np.maximum(fillet**2 - rho**2, 0.0)),
+                    np.inf)
+    depth = stroke - rise
+    nominal = np.interp(np.clip(depth / thickness, 0.0, None), strain, stress)
+    return float(4.0 * np.sum(np.where(depth > 0.0, nominal, 0.0)) * (half / n) ** 2)
