@@ -43,10 +43,10 @@ def _mean(fn, lo: float, hi: float) -> float:
 
 def _mean_force(h: np.ndarray, travel: float, lo: float, hi: float, gap: float = 0.0) -> float:
     """Mean whole-specimen punch force [N] over crushing strokes [lo, hi] (linear
-    interpolation of the history; the punch travels ``travel``, the first ``gap`` of it
-    in the air)."""
+    interpolation of the history, which holds whole-part forces; the punch travels
+    ``travel``, the first ``gap`` of it in the air)."""
     crush = h["t"] * travel - gap
-    return _mean(lambda d: np.interp(d, crush, 4 * h["force_punch_z_N"]), lo, hi)
+    return _mean(lambda d: np.interp(d, crush, h["force_punch_z_N"]), lo, hi)
 
 
 def _check_stable(s: dict, out) -> np.ndarray:

@@ -17,6 +17,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
+from vtkmodules.vtkCommonCore import vtkLogger
 
 from forming.contact.shapes import NUMPY, Shape
 
@@ -283,6 +284,8 @@ def render_3d(path: Path, grid: pyvista.UnstructuredGrid, scalars: str,
         ``path``.
     """
     pyvista.OFF_SCREEN = True
+    # VTK warns on stderr that it has no X display, though off-screen rendering works
+    vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
     plotter = pyvista.Plotter(off_screen=True, window_size=(1200, 900))
     try:
         plotter.set_background("white")
