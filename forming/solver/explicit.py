@@ -22,7 +22,7 @@ from dataclasses import asdict
 
 import numpy as np
 import ufl
-from dolfinx import fem, la  # noqa: I001
+from dolfinx import fem  # noqa: I001
 from dolfinx.fem.petsc import assemble_matrix
 from mpi4py import MPI
 
@@ -30,6 +30,7 @@ from forming import compat, signals  # noqa: F401
 from forming.errors import InputError, KernelFailure
 from forming.model import Model
 from forming.solver.base import StepResult
+from forming.solver.lumped import BodyState, ExternalTerm, assembled
 from forming.solver.options import ExplicitOptions
 from forming.solver.stepping import StepControl
 
@@ -37,81 +38,6 @@ log = logging.getLogger(__name__)
 
 _CHECK_EVERY = 64  # increments between collective checks for a stop request
 MASS_ADDED_LIMIT = 0.05  # added mass above which a run is flagged (fraction of the mass)
-
-
-def body_density(body) -> float:
-    """Mass density of a model body [t/mm^3]: the scene body's, else its material's.
-
-    Raises:
-        InputError: Neither gives one.
-    """
-    rho = body.spec.density if body.spec.density is not None else getattr(
-        body.material, "density", None)
-    if rho is None:
-        raise InputError(f"body.{body.spec.name}.density",
-                         "the explicit solver needs a mass density (Body.density or the "
-                         "material's density) [t/mm^3]")
-    return float(rho)
-
-
-class _BodyState:
-    """Velocity, acceleration, lumped mass and force vectors of one body."""
-
-    def __init__(self, name: str, body, bcs: list[fem.DirichletBC]):
-        self.name = name
-        self.body = body
-        V = body.V
-        if body.spec.degree != 1:
-            raise InputError(f"body.{name}.degree",
-                             "the explicit solver needs linear elements (row-sum lumping)")
-        self.n_owned = V.dofmap.index_map.size_local * 3
-        self.bcs = bcs
-        mask = np.zeros(body.u.x.array.size, dtype=bool)
-        for bc in bcs:
-            mask[bc.dof_indices()[0]] = True
-        self.fixed = mask
-        self.v = np.zeros_like(body.u.x.array)  # velocity at the half step
-        self.a = np.zeros_like(self.v)
-        self.f_int = fem.Function(V)  # internal forces (assembled, ghosts updated)
-        self.f_all = fem.Function(V)  # full residual: internal minus external forces
-        rho = body_density(body)
-        w = ufl.TestFunction(V)
-        mass = body.domain.form(rho * ufl.dot(ufl.as_vector([1.0, 1.0, 1.0]), w) * body.dx)
-        self.m_phys = _assembled(mass)
-        if np.any(self.m_phys[: self.n_owned] <= 0):
-            raise InputError(f"body.{name}", "a node has no mass (empty lumped row)")
-        self.m = self.m_phys.copy()
-
-
-def _assembled(form: fem.Form, out: fem.Function | None = None) -> np.ndarray:
-    """Assemble a vector form, sum shared entries and update ghosts."""
-    vec = out.x if out is not None else la.vector(form.function_spaces[0].dofmap.index_map,
-                                                   form.function_spaces[0].dofmap.index_map_bs)
-    vec.array[:] = 0.0
-    fem.assemble_vector(vec.array, form)
-    vec.scatter_reverse(la.InsertMode.add)
-    vec.scatter_forward()
-    return vec.array if out is not None else vec.array.copy()
-
-
-class _ExternalTerm:
-    """A contact or interface traction on one body, assembled alone (energy bookkeeping)."""
-
-    def __init__(self, state: _BodyState, form: fem.Form, contact=None):
-        self.state = state
-        self.form = form
-        self.contact = contact  # the tool contact (a ContactTerm), None otherwise
-        self.vec = fem.Function(state.body.V)
-        self.r_old = np.zeros(state.n_owned)
-
-    def update(self) -> None:
-        """Keep the last residual, assemble the new one."""
-        self.r_old[:] = self.vec.x.array[: self.state.n_owned]
-        _assembled(self.form, self.vec)
-
-    @property
-    def r_new(self) -> np.ndarray:
-        return self.vec.x.array[: self.state.n_owned]
 
 
 class ExplicitSolver:
@@ -134,20 +60,20 @@ class ExplicitSolver:
         self.comm = comm
         bcs = {n: [bc for bc, b in zip(model.dirichlet.bcs, model.dirichlet.bc_bodies,
                                        strict=True) if b == n] for n in model.names}
-        self.states = [_BodyState(n, model.bodies[n], bcs[n]) for n in model.names]
+        self.states = [BodyState(n, model.bodies[n], bcs[n]) for n in model.names]
         by_name = {st.name: st for st in self.states}
         tests = model.test_functions()
         emaps = model.entity_maps or None
         self._internal = [fem.form(b.residual(tests[n]), entity_maps=emaps)
                           for n, b in model.bodies.items()]
         # contact and interface tractions on their own: tool work and friction energy
-        self._tools = [_ExternalTerm(by_name[name], fem.form(r, entity_maps=emaps), c)
+        self._tools = [ExternalTerm(by_name[name], fem.form(r, entity_maps=emaps), c)
                        for c in model.contacts for name, r in c.residuals(tests).items()]
-        self._sides = [_ExternalTerm(by_name[name], fem.form(r, entity_maps=emaps))
+        self._sides = [ExternalTerm(by_name[name], fem.form(r, entity_maps=emaps))
                        for itf in model.interfaces
                        for name, r in itf.residuals(tests).items()]
         # distributed loads: external forces that are neither contact nor interface
-        self._loads = [_ExternalTerm(by_name[tr.body], fem.form(
+        self._loads = [ExternalTerm(by_name[tr.body], fem.form(
             -ufl.dot(const, tests[tr.body]) * ds, entity_maps=emaps))
             for tr, const, ds in model.tractions]
         # every external term once; the full residual is their sum with the internal forces
@@ -215,7 +141,7 @@ class ExplicitSolver:
             f.x.scatter_forward()
             total = f.x.array.copy()
             if pen is not None:
-                total += _assembled(pen)
+                total += assembled(pen)
             # one value per node: the stiffest of its three components
             sums.append(np.repeat(total.reshape(-1, 3).max(axis=1), 3))
             st.body.invalidate()
@@ -254,14 +180,14 @@ class ExplicitSolver:
         for st in self.states:
             st.body.update_material(want_tangent=False)
         for st, internal in zip(self.states, self._internal, strict=True):
-            _assembled(internal, st.f_int)
+            assembled(internal, st.f_int)
             st.f_all.x.array[:] = st.f_int.x.array
         for term in self._terms:
             term.update()
             term.state.f_all.x.array[:] += term.vec.x.array
         self.assembly_seconds += time.perf_counter() - t0
 
-    def _accelerate(self, st: _BodyState) -> None:
+    def _accelerate(self, st: BodyState) -> None:
         """Acceleration a = -R / m - alpha v, zero where the motion is prescribed."""
         st.a[:] = -st.f_all.x.array / st.m
         if self.options.damping > 0:
