@@ -116,3 +116,12 @@ def test_crushing_metrics_are_consistent(tmp_path):
     m = s["metrics"]
     assert m["crushing_strain_max"] >= m["crushing_strain_mean_under_punch"] > 0
     assert m["crushed_volume_under_punch_mm3"] <= m["crushed_volume_mm3"]
+
+
+def test_small_sliding_beyond_its_range_is_warned(tmp_path):
+    """A sled pulled 6 mm over 10 mm facets passes the small-sliding limit (half a facet):
+    the run completes, and summary.json warns that the pairing loses accuracy."""
+    s = run_case("skin_sled", tmp_path, ["drag=6"])
+    assert s["status"] == "completed"
+    assert any("interface interface_top: slip" in w and "small-sliding" in w
+               for w in s["warnings"])
