@@ -78,8 +78,7 @@ def build(p: Params) -> Job:
                   p.skin_stabilisation, p.skin_smoothing) if p.skins else None
     b = rectangular_blank(half, half, p.thickness, p.cells, honeycomb_core(
         p.elasticity, curve=p.curve, viscosity=p.viscosity), skins, p.grading)
-    # fabric on a tool: the same elastic-slip stick as on the core (nodes under the
-    # holder touch at zero pressure, where an augmented stick constraint cycled)
+    # fabric on tools: elastic-slip stick, as on the core (augmented stick cycled at zero p)
     tools, contacts = hemisphere_tools(
         b, p.punch_diameter, p.die_diameter, p.edge_radius, p.stroke,
         p.tool_skin_friction if p.skins else p.friction, p.blank_holder,
