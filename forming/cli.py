@@ -167,9 +167,10 @@ def _add_drape_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--size", type=float, default=None, metavar="MM",
                         help="side of the square net [mm] (default: the blank's larger side)")
     parser.add_argument("--start", default=None, metavar="X,Y,Z",
-                        help="where the net is pinned, a point on the tool at the end of the "
-                             "stroke [mm] (default: the tool's point closest to the blank's "
-                             "centre)")
+                        help="where the net's origin node is pinned, a point on the tool at "
+                             "the end of the stroke [mm] (default: half a cell from the tool's "
+                             "point closest to the blank's centre, which is then the origin "
+                             "cell's centre); write --start=X,Y,Z when X is negative")
     parser.add_argument("--quiet", action="store_true", help="warnings and errors only")
 
 

@@ -1,12 +1,12 @@
 """``forming drape CASE``: a kinematic drape onto a tool of a case, and its outputs.
 
 The case's job is built as for a run (``--set`` applies); the net is draped onto one of
-its tools at the end of the stroke (``tool.offset(1)``), from the tool's point closest to
-the blank's centre. The tool's surface ends where the blank cannot reach: outside the
-blank's bounding box swept by the tools' travels (the hemisphere's punch ends at its
-equator, not down its shank); the net stops there. Writes ``drape.json``,
-``shear_angle.png`` and ``drape.vtu`` (the net with its shear angles, for ParaView) into
-the output folder, on rank 0.
+its tools at the end of the stroke (``tool.offset(1)``), centred on the tool's point
+closest to the blank's centre (the centre of the origin cell). The tool's surface ends
+where the blank cannot reach: outside the blank's bounding box swept by the tools'
+travels (the hemisphere's punch ends at its equator, not down its shank); the net stops
+there. Writes ``drape.json``, ``shear_angle.png`` and ``drape.vtu`` (the net with its
+shear angles, for ParaView) into the output folder, on rank 0.
 """
 
 from __future__ import annotations
@@ -81,7 +81,8 @@ def case_drape(case: str, sets: list[str], tool: str | None = None,
         angle: Plan-view angle of the first fibre family [deg].
         size: Side of the square net [mm]; None: the blank's larger side.
         start: Where the net's origin node is pinned [mm] (on the tool, at the end of the
-            stroke); None: the tool's point closest to the blank's centre.
+            stroke); None: half a cell from the tool's point closest to the blank's centre,
+            so that this point is the origin cell's centre (the net symmetric about it).
 
     Returns:
         The drape and a record of what was draped (case, tool, defaults used).
@@ -119,8 +120,12 @@ def case_drape(case: str, sets: list[str], tool: str | None = None,
     d = element if spacing is None else float(spacing)
     side = float(max(hi[:2] - lo[:2])) if size is None else float(size)
     n = max(2, math.ceil(side / d - 1e-9) + 1)
-    if start is None:
-        start = _closest_point(surface, (lo + hi) / 2, d, tool)
+    centre = None
+    if start is None:  # the closest point is the origin cell's centre: half a cell back
+        centre = _closest_point(surface, (lo + hi) / 2, d, tool)
+        a = math.radians(angle)
+        back = np.array([math.cos(a) - math.sin(a), math.sin(a) + math.cos(a), 0.0])
+        start = project(surface, centre - d / 2 * back)
     try:
         settings = DrapeSettings(start=tuple(float(v) for v in start), spacing=d,
                                  nodes=(n, n), angle=float(angle))
@@ -133,6 +138,7 @@ def case_drape(case: str, sets: list[str], tool: str | None = None,
             "tool_offset_mm": [float(v) for v in t.offset(1.0)],
             "blank_box_mm": [lo.tolist(), hi.tolist()],
             "tool_extent_mm": [c.tolist() for c in reach],
+            "net_centre_mm": None if centre is None else centre.tolist(),
             "normal_at_start": surface.evaluate(result.nodes[settings.origin][None])[1][0]
             .tolist(),
             "net_side_mm": side, "wrinkling_limits_deg": list(wrinkling_limits(scene))}
@@ -222,8 +228,8 @@ def shear_picture(result: Drape, path: Path, title: str,
         title: Its title.
         limits: Wrinkling angles (positive, negative) [deg], marked on the colour bar;
             cells beyond them are outlined black.
-        from_below: The net is seen from below (it lies under the tool, e.g. a punch
-            pointing down): lower cells are drawn over higher ones.
+        from_below: The net lies under the tool (a punch pointing down): in the plan view
+            lower cells are drawn over higher ones.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.collections import PolyCollection
@@ -244,9 +250,10 @@ def shear_picture(result: Drape, path: Path, title: str,
     beyond = (shear > limits[0]) | (shear < limits[1])
     z = quads[ok][:, :, 2].mean(axis=1)
     order = np.argsort(-z if from_below else z)  # the cells nearer the viewer drawn last
-    view = "below (-z)" if from_below else "above (+z)"
+    front = "lower" if from_below else "upper"
     for ax, polys, keys, sub in (
-            (axes[0], quads[ok][:, :, :2], order, f"draped, plan view seen from {view}"),
+            (axes[0], quads[ok][:, :, :2], order, f"draped, plan view (x-y), {front} cells in "
+                                                  "front"),
             (axes[1], flat[ok], np.arange(len(shear)), "flat net (the fabric before draping)")):
         pc = PolyCollection(polys[keys], array=shear[keys], cmap="coolwarm", norm=norm,
                             edgecolors=list(np.where(beyond[keys], "black", "0.35")),

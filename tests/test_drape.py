@@ -185,11 +185,11 @@ def test_bad_input_names_the_field():
 def test_forming_drape_hemisphere_writes_map_fields_and_summary(tmp_path):
     """forming drape hemisphere: exit 0, drape.json (settings, shear range, wrinkling area
     fraction, node count, wall time under 10 s), shear_angle.png and drape.vtu (quads with
-    the cell shear) in --out; the drape covers the punch from its tip to its equator (the
-    blank cannot reach the shank) with shear of both signs, antisymmetric to 1e-6 deg about
-    the families' bisector. A rerun replaces it; a folder holding other files, and an
-    unknown tool, exit 2 naming the field. A failure means the command, its defaults or
-    its output contract broke."""
+    the cell shear) in --out; the net is centred on the punch's tip (the origin cell's
+    centre) and covers the punch up to its equator (the blank cannot reach the shank),
+    with shear of both signs, antisymmetric to 1e-6 deg. A rerun replaces it; a folder
+    holding other files, and an unknown tool, exit 2 naming the field. A failure means the
+    command, its defaults or its output contract broke."""
     out = tmp_path / "drape"
     for _ in range(2):  # the second run clears the first
         proc = run_python(["-m", "forming.cli", "drape", "hemisphere", "--out", str(out)],
@@ -197,9 +197,12 @@ def test_forming_drape_hemisphere_writes_map_fields_and_summary(tmp_path):
         assert proc.returncode == 0, proc.stderr[-2000:]
     rec = json.loads((out / "drape.json").read_text())
     assert rec["tool"] == "punch" and rec["settings"]["angle"] == -45.0
-    assert rec["settings"]["start"] == pytest.approx([0.0, 0.0, -30.0], abs=1e-9)
+    assert rec["net_centre_mm"] == pytest.approx([0.0, 0.0, -30.0], abs=1e-9)  # the tip
+    start = np.array(rec["settings"]["start"])
+    assert np.linalg.norm(start[:2]) == pytest.approx(rec["settings"]["spacing"] / 2**0.5, rel=0.01)
     assert rec["wall_s"] < 10 and 0 < rec["nodes_placed"] < rec["nodes_total"]
-    assert rec["shear_min_deg"] < -30 and rec["shear_max_deg"] > 30
+    assert rec["shear_max_deg"] > 30
+    assert rec["shear_min_deg"] == pytest.approx(-rec["shear_max_deg"], abs=1e-6)
     assert 0 <= rec["area_fraction_beyond_limits"] < 0.1
     assert rec["wrinkling_limits_deg"] == [42.0, -50.0]
     assert (out / "shear_angle.png").stat().st_size > 20_000
