@@ -16,6 +16,7 @@ from typing import Protocol
 
 import numpy as np
 
+from forming.contact.shapes import NUMPY
 from forming.errors import InputError
 
 _TOL = 1e-12
@@ -69,8 +70,6 @@ class ShapeSurface:
 
     def distance(self, points: np.ndarray) -> np.ndarray:
         """Signed distances of points (n, 3) [mm]."""
-        from forming.contact.shapes import NUMPY
-
         p = (np.asarray(points, dtype=float) - np.asarray(self.shift)).T
         return np.asarray(self.shape.distance(p, NUMPY), dtype=float) * np.ones(p.shape[1])
 
