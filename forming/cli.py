@@ -4,6 +4,7 @@ forming list                               the cases, one line each
 forming run CASE [--out DIR] [--set KEY=VALUE ...] [-forming_<petsc_option> VALUE]
 forming run CASE --help                    every parameter of CASE
 forming compare CASE [--out DIR] [--set KEY=VALUE ...] [--reuse]
+forming drape CASE [--tool NAME] [--out DIR] [--set KEY=VALUE ...] [--spacing D] [--angle DEG]
 forming --version
 """
 
@@ -26,6 +27,7 @@ commands:
   list       the cases, one line each
   run        run a case: forming run CASE --set KEY=VALUE (forming run CASE --help)
   compare    run a case with both solvers and compare them
+  drape      kinematic drape (pin-jointed net) onto a tool of a case: shear-angle map
 
 exit codes: 0 completed, 1 failed solve, 2 bad input, 3 file or folder error,
 4 internal error, 130 interrupted (SIGINT), 143 stopped (SIGTERM).
@@ -98,6 +100,80 @@ def _compare(args: argparse.Namespace, extra: list[str]) -> int:
     return 0 if both else 1
 
 
+def _drape(args: argparse.Namespace) -> int:
+    from mpi4py import MPI
+
+    from forming.case import end_with_error
+    from forming.drape_case import run_drape
+    from forming.errors import InputError
+    from forming.log import setup
+
+    setup(quiet=args.quiet)
+    comm = MPI.COMM_WORLD
+    out = args.out or Path("results") / f"{args.case}_drape"
+    try:
+        r = run_drape(args.case, args.assignments, out, args.tool, args.spacing, args.angle,
+                      args.size, _point("--start", args.start), comm)
+    except InputError as exc:
+        return end_with_error(comm, "input", str(exc))
+    except OSError as exc:
+        return end_with_error(comm, "io", str(exc))
+    except Exception as exc:  # noqa: BLE001  (reported, then every rank ends)
+        log.exception("internal error")
+        return end_with_error(comm, "internal", f"{type(exc).__name__}: {exc}")
+    if comm.rank == 0:
+        s = r["settings"]
+        print(f"{args.case}: drape onto {r['tool']}, d = {s['spacing']:.4g} mm, "
+              f"{r['nodes_placed']} of {r['nodes_total']} nodes placed")
+        for key in ("shear_min_deg", "shear_max_deg", "area_fraction_beyond_limits", "wall_s"):
+            print(f"  {key} = {r[key]}")
+        print(f"outputs in {Path(out).resolve()}")
+    return 0
+
+
+def _point(name: str, text: str | None) -> tuple[float, float, float] | None:
+    """``X,Y,Z`` as three floats (None stays None)."""
+    from forming.errors import InputError
+
+    if text is None:
+        return None
+    try:
+        p = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        p = ()
+    if len(p) != 3:
+        raise InputError(name, f"expected X,Y,Z in mm, got {text!r}")
+    return p
+
+
+def _add_drape_arguments(parser: argparse.ArgumentParser) -> None:
+    from forming.drape_case import DEFAULT_ANGLE
+
+    parser.add_argument("case", help="case name (forming list)")
+    parser.add_argument("--tool", default=None,
+                        help="the tool to drape onto (default: the case's first tool)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="output folder (default results/<case>_drape); a folder holding "
+                             "an earlier drape is cleared of its files first")
+    parser.add_argument("--set", dest="assignments", action="append", default=[],
+                        metavar="KEY=VALUE", help="set a case parameter (repeatable)")
+    parser.add_argument("--spacing", type=float, default=None, metavar="D",
+                        help="net spacing, the edge of a cell [mm] (default: the blank's "
+                             "in-plane element size)")
+    parser.add_argument("--angle", type=float, default=DEFAULT_ANGLE, metavar="DEG",
+                        help="plan-view angle of the first fibre family from x [deg]; the "
+                             f"second starts at DEG + 90 (default {DEFAULT_ANGLE:g}: the skins' "
+                             "+/-45 deg)")
+    parser.add_argument("--size", type=float, default=None, metavar="MM",
+                        help="side of the square net [mm] (default: the blank's larger side)")
+    parser.add_argument("--start", default=None, metavar="X,Y,Z",
+                        help="where the net's origin node is pinned, a point on the tool at "
+                             "the end of the stroke [mm] (default: half a cell from the tool's "
+                             "point closest to the blank's centre, which is then the origin "
+                             "cell's centre); write --start=X,Y,Z when X is negative")
+    parser.add_argument("--quiet", action="store_true", help="warnings and errors only")
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``forming`` command."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -118,7 +194,14 @@ def main(argv: list[str] | None = None) -> None:
     add_run_arguments(cmp_)
     cmp_.add_argument("--reuse", action="store_true",
                       help="compare the runs already in --out again (nothing is run)")
+    drape = sub.add_parser("drape", help="kinematic drape onto a tool of a case "
+                                         "(shear-angle map, drape.json, drape.vtu)")
+    _add_drape_arguments(drape)
     args, extra = parser.parse_known_args(argv)
+    if args.command == "drape":
+        if extra:
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        raise SystemExit(_drape(args))
     if args.command == "list":
         raise SystemExit(_list())
     if args.command == "run":
