@@ -91,7 +91,7 @@ def build(p: Params) -> Job:
     def metrics(rec, model) -> dict:
         force = rec.column("force_roller_z_N")  # whole part
         d = rec.column("t") * p.deflection
-        return post.force_peak_final(rec, model, "force_roller_z_N", "force") | {
+        return post.force_peak_final(rec, "force_roller_z_N", "force") | {
             "deflection_mm": float(d[-1]),
             "stiffness_N_per_mm": float(force[-1] / d[-1]) if d[-1] > 0 else 0.0,
             "initial_stiffness_N_per_mm": float(force[1] / d[1])

@@ -252,22 +252,37 @@ def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
 
     setup(quiet=getattr(args, "quiet", False))
     comm = MPI.COMM_WORLD
-    try:
+    out = args.out or Path("results") / name
+
+    def run() -> dict:
         apply_petsc_args(extra)
-        out = args.out or Path("results") / name
-        summary = run_case(name, out, args.assignments, build, params_cls)
-    except InputError as exc:
-        return end_with_error(comm, "input", str(exc))
-    except OSError as exc:
-        return end_with_error(comm, "io", str(exc))
-    except Exception as exc:  # noqa: BLE001  (reported, then every rank ends)
-        log.exception("internal error")
-        return end_with_error(comm, "internal", f"{type(exc).__name__}: {exc}")
+        return run_case(name, out, args.assignments, build, params_cls)
+
+    summary, code = guarded(comm, run)
+    if code is not None:
+        return code
     if comm.rank == 0:
         _report(name, summary, Path(out))
     if summary["status"] == "interrupted":
         return EXIT_CODES[summary.get("signal", "SIGINT")]
     return EXIT_CODES["completed"] if summary["status"] == "completed" else EXIT_CODES["failed"]
+
+
+def guarded(comm, fn):
+    """Call ``fn()``; an error becomes its exit code (:func:`end_with_error`).
+
+    Returns:
+        ``(result, None)``, or ``(None, exit code)`` after an error.
+    """
+    try:
+        return fn(), None
+    except InputError as exc:
+        return None, end_with_error(comm, "input", str(exc))
+    except OSError as exc:
+        return None, end_with_error(comm, "io", str(exc))
+    except Exception as exc:  # noqa: BLE001  (reported, then every rank ends)
+        log.exception("internal error")
+        return None, end_with_error(comm, "internal", f"{type(exc).__name__}: {exc}")
 
 
 def end_with_error(comm, kind: str, message: str, wait: float = 2.0) -> int:

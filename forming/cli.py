@@ -73,21 +73,20 @@ def _case_help(command: str, name: str) -> int:
 def _compare(args: argparse.Namespace, extra: list[str]) -> int:
     from mpi4py import MPI
 
-    from forming.case import apply_petsc_args, end_with_error
+    from forming.case import apply_petsc_args, guarded
     from forming.compare import compare
-    from forming.errors import InputError
     from forming.log import setup
 
     setup(quiet=args.quiet)
     comm = MPI.COMM_WORLD
     out = args.out or Path("results") / f"{args.case}_compare"
-    try:
+    def run() -> dict:
         apply_petsc_args(extra)
-        r = compare(args.case, out, args.assignments, reuse=args.reuse)
-    except InputError as exc:
-        return end_with_error(comm, "input", str(exc))
-    except OSError as exc:
-        return end_with_error(comm, "io", str(exc))
+        return compare(args.case, out, args.assignments, reuse=args.reuse)
+
+    r, code = guarded(comm, run)
+    if code is not None:
+        return code
     if MPI.COMM_WORLD.rank == 0:
         print(f"{args.case}: implicit {r['status_implicit']}, explicit {r['status_explicit']}")
         for key in ("force_rms_diff_rel", "peak_force_diff_rel", "shape_rms_diff_rel_thickness",
@@ -103,24 +102,18 @@ def _compare(args: argparse.Namespace, extra: list[str]) -> int:
 def _drape(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
-    from forming.case import end_with_error
+    from forming.case import guarded
     from forming.drape_case import run_drape
-    from forming.errors import InputError
     from forming.log import setup
 
     setup(quiet=args.quiet)
     comm = MPI.COMM_WORLD
     out = args.out or Path("results") / f"{args.case}_drape"
-    try:
-        r = run_drape(args.case, args.assignments, out, args.tool, args.spacing, args.angle,
-                      args.size, _point("--start", args.start), comm)
-    except InputError as exc:
-        return end_with_error(comm, "input", str(exc))
-    except OSError as exc:
-        return end_with_error(comm, "io", str(exc))
-    except Exception as exc:  # noqa: BLE001  (reported, then every rank ends)
-        log.exception("internal error")
-        return end_with_error(comm, "internal", f"{type(exc).__name__}: {exc}")
+    r, code = guarded(comm, lambda: run_drape(
+        args.case, args.assignments, out, args.tool, args.spacing, args.angle, args.size,
+        _point("--start", args.start), comm))
+    if code is not None:
+        return code
     if comm.rank == 0:
         s = r["settings"]
         print(f"{args.case}: drape onto {r['tool']}, d = {s['spacing']:.4g} mm, "

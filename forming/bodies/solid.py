@@ -95,8 +95,9 @@ class SolidBody(BodyBase):
                                            name="volumetric_plastic_strain")
         self._evaluated_at: np.ndarray | None = None
         self._has_tangent = False
-        self.travel = scene.travel_mm() or 1.0  # mm per unit load parameter
-        if getattr(self.material, "viscosity", 0.0) > 0 and scene.travel_mm() is None:
+        travel = scene.travel_mm()
+        self.travel = travel or 1.0  # mm per unit load parameter
+        if getattr(self.material, "viscosity", 0.0) > 0 and travel is None:
             raise InputError("material.viscosity", "a viscous regularisation is per mm of "
                              "travel, and nothing in the scene moves: give Scene.travel")
         self._warm_kernel()

@@ -28,9 +28,8 @@ def relative_rms(computed: np.ndarray, reference: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(computed - reference))) / ref) if ref > 0 else np.inf
 
 
-def force_peak_final(rec, model, column: str, name: str = "punch_force") -> dict[str, float]:
-    """Largest and final force of a history column (whole part) [N]."""
-    del model  # the history holds whole-part forces already
+def force_peak_final(rec, column: str, name: str = "punch_force") -> dict[str, float]:
+    """Largest and final force of a history column (whole part: the history's) [N]."""
     force = rec.column(column)
     return {f"{name}_max_N": float(force.max()), f"{name}_final_N": float(force[-1])}
 
@@ -195,7 +194,7 @@ def hemisphere_metrics(rec, model, punch_radius: float, edge: float) -> dict[str
     x = ufl.SpatialCoordinate(model.body.mesh)
     under = ufl.conditional(ufl.lt(x[0] ** 2 + x[1] ** 2, punch_radius**2), 1.0, 0.0)
     on_cap = lambda xs: np.hypot(xs[:, 0], xs[:, 1]) < 0.7 * punch_radius  # noqa: E731
-    return force_peak_final(rec, model, "force_punch_z_N") | {
+    return force_peak_final(rec, "force_punch_z_N") | {
         "crushed_volume_mm3": crushed_volume(model),
         "crushed_volume_under_punch_mm3": crushed_volume(model, 0.01, under),
         "crushing_strain_mean_under_punch": evp.compaction_mean(under),
