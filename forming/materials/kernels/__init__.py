@@ -64,7 +64,14 @@ from __future__ import annotations
 
 from .common import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_MAP
 from .curve import hermite_eval
-from .drivers import elastic_points, foam_frozen_points, foam_points
+from .drivers import (
+    TANGENT_CLOSED,
+    TANGENT_DIFFERENCE,
+    TANGENT_NONE,
+    elastic_points,
+    foam_frozen_points,
+    foam_points,
+)
 from .foam import N_PROPS, PROP_ALPHA, PROP_PT, PROP_VISC
 from .linalg import eig_sym3
 from .mandel import SQRT2, mandel_rotation
@@ -79,6 +86,9 @@ __all__ = [
     "PROP_PT",
     "PROP_VISC",
     "SQRT2",
+    "TANGENT_CLOSED",
+    "TANGENT_DIFFERENCE",
+    "TANGENT_NONE",
     "STATUS_INVERTED",
     "STATUS_OK",
     "STATUS_RETURN_MAP",

@@ -200,9 +200,9 @@ def _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig):
 
 
 @_inner
-def _foam_update(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_slope, rot, cr,
+def _foam_return(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_slope, rot, cr,
                  c_eig, lu):
-    """Crushable-foam stress update at one point.
+    """Crushable-foam stress update at one point, in the eigenframe of C.
 
     Args:
         c: Eigenvalues of C (3-tuple).
@@ -218,34 +218,53 @@ def _foam_update(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_sl
         ys: Hardening table values.
         ds: Hardening table slopes.
         pc_slope: Lipschitz constant of the hardening curve.
-        rot: (6, 6) scratch (Mandel rotation of the eigenframe).
+        rot: (6, 6) output: Mandel rotation of the eigenframe.
         cr: (6, 6) scratch.
-        c_eig: (6, 6) scratch (stiffness in the eigenframe).
+        c_eig: (6, 6) output: stiffness in the eigenframe.
         lu: (6, 7) scratch for the linear solves.
+
+    Returns:
+        (status, S-scalings, sigma-scalings, stress T, rotated Cauchy stress sigma,
+        return size ``mu`` (0 for an elastic point), new plastic strain (global
+        Mandel; ``ep_n`` unless converged), new volumetric plastic strain); the
+        scalings, T and sigma are eigenframe Mandel 6-tuples.
+    """
+    ep_old = (ep_n[0], ep_n[1], ep_n[2], ep_n[3], ep_n[4], ep_n[5])
+    ok, s_fac, k_fac, ep_eig, t_tr = _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig)
+    if not ok:
+        return STATUS_INVERTED, s_fac, k_fac, _ZERO6, _ZERO6, 0.0, ep_old, evp_n
+    alpha = props[PROP_ALPHA]
+    pt = props[PROP_PT]
+    visc = props[PROP_VISC]
+    sig_tr = _mul6(k_fac, t_tr)
+    f_tr = _foam_yield(sig_tr, pc_n, pt, alpha)
+    scale = pc_n + pt
+    if f_tr <= 1e-12 * scale:
+        return STATUS_OK, s_fac, k_fac, t_tr, sig_tr, 0.0, ep_old, evp_n
+    bound = _phi_bound_data(f_tr, c_eig, k_fac, t_tr, scale, evp_n, pc_slope, alpha, visc)
+    converged, mu, t, sig = _return_mapping(f_tr, 1e-13 * scale, bound, c_eig, k_fac, t_tr, lu,
+                                            evp_n, xs, ys, ds, pt, alpha, visc)
+    if not converged:
+        return STATUS_RETURN_MAP, s_fac, k_fac, _ZERO6, _ZERO6, 0.0, ep_old, evp_n
+    ep_new = _mv6(rot, _axpy6(ep_eig, mu, sig))
+    evp = evp_n - mu * (sig[0] + sig[1] + sig[2])
+    return STATUS_OK, s_fac, k_fac, t, sig, mu, ep_new, evp
+
+
+@_inner
+def _foam_update(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_slope, rot, cr,
+                 c_eig, lu):
+    """Crushable-foam stress update at one point (:func:`_foam_return`, S global).
 
     Returns:
         (status, S, new plastic strain, new volumetric plastic strain); S (zero on
         failure) and the plastic strain (``ep_n`` unless converged) are global Mandel
         6-tuples.
     """
-    ep_old = (ep_n[0], ep_n[1], ep_n[2], ep_n[3], ep_n[4], ep_n[5])
-    ok, s_fac, k_fac, ep_eig, t_tr = _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig)
-    if not ok:
-        return STATUS_INVERTED, _ZERO6, ep_old, evp_n
-    alpha = props[PROP_ALPHA]
-    pt = props[PROP_PT]
-    visc = props[PROP_VISC]
-    f_tr = _foam_yield(_mul6(k_fac, t_tr), pc_n, pt, alpha)
-    scale = pc_n + pt
-    if f_tr <= 1e-12 * scale:
-        return STATUS_OK, _mv6(rot, _mul6(s_fac, t_tr)), ep_old, evp_n
-    bound = _phi_bound_data(f_tr, c_eig, k_fac, t_tr, scale, evp_n, pc_slope, alpha, visc)
-    converged, mu, t, sig = _return_mapping(f_tr, 1e-13 * scale, bound, c_eig, k_fac, t_tr, lu,
-                                            evp_n, xs, ys, ds, pt, alpha, visc)
-    if not converged:
-        return STATUS_RETURN_MAP, _ZERO6, ep_old, evp_n
-    ep_new = _mv6(rot, _axpy6(ep_eig, mu, sig))
-    evp = evp_n - mu * (sig[0] + sig[1] + sig[2])
+    st, s_fac, _k, t, _sig, _mu, ep_new, evp = _foam_return(
+        c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_slope, rot, cr, c_eig, lu)
+    if st != STATUS_OK:
+        return st, _ZERO6, ep_new, evp
     return STATUS_OK, _mv6(rot, _mul6(s_fac, t)), ep_new, evp
 
 
@@ -265,18 +284,19 @@ def _foam_frozen_update(c, q, ep_n, cel, measure, rot, cr, c_eig):
         ep_n: (6,) converged plastic strain (global Mandel).
         cel: (6, 6) Mandel elastic stiffness in the material frame.
         measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
-        rot: (6, 6) scratch (Mandel rotation of the eigenframe).
+        rot: (6, 6) output: Mandel rotation of the eigenframe.
         cr: (6, 6) scratch.
-        c_eig: (6, 6) scratch (stiffness in the eigenframe).
+        c_eig: (6, 6) output: stiffness in the eigenframe.
 
     Returns:
-        (status, S as a Mandel 6-tuple in the global frame, zero on failure).
+        (status, S as a Mandel 6-tuple in the global frame (zero on failure),
+        S-scalings and trial stress T in the eigenframe).
     """
     ep_old = (ep_n[0], ep_n[1], ep_n[2], ep_n[3], ep_n[4], ep_n[5])
     ok, s_fac, k_fac, _ep, t_tr = _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig)
     if not ok:
-        return STATUS_INVERTED, _ZERO6
+        return STATUS_INVERTED, _ZERO6, s_fac, _ZERO6
     sig = _mul6(k_fac, t_tr)
     if not math.isfinite(_dot6(sig, sig)):
-        return STATUS_RETURN_MAP, _ZERO6
-    return STATUS_OK, _mv6(rot, _mul6(s_fac, t_tr))
+        return STATUS_RETURN_MAP, _ZERO6, s_fac, _ZERO6
+    return STATUS_OK, _mv6(rot, _mul6(s_fac, t_tr)), s_fac, t_tr
