@@ -1,9 +1,12 @@
 """Time the quadrature-point kernels: microseconds per point, with the tangent.
 
 Compares the kernels of the working tree ("new") with those of a git revision
-("old", default ``HEAD``) on the same points and plastic history, through
-:func:`forming.materials.solids.evaluate`, and checks that both give the same
-results. Run with a fresh numba cache, e.g.
+("old") on the same points and plastic history, through
+:func:`forming.materials.solids.evaluate`, on plastic points (a step from a crushed
+state) and on elastic points (strains below 0.5%). It checks that both give the same
+stress and plastic state bit for bit and reports the largest relative difference of
+their tangents (the old kernels' central difference against the closed form). Run
+with a fresh numba cache and nothing else on the machine, e.g.
 ``NUMBA_CACHE_DIR=/tmp/numba_kspeed python benchmarks/kernel_speed.py``.
 """
 
@@ -74,7 +77,11 @@ def random_cmats(n: int, seed: int = 0) -> np.ndarray:
 
 
 def evaluate_with(kernels, material, cmats, ep, evp) -> tuple[float, solids.PointResult]:
-    """Wall time [s] and result of ``evaluate(..., want_tangent=True)`` with ``kernels``."""
+    """Wall time [s] and result of ``evaluate(..., want_tangent=True)`` with ``kernels``.
+
+    The old kernels take ``want_tangent=True`` as their (difference) tangent; the new
+    ones as the closed form.
+    """
     solids.kernels = kernels
     try:
         t0 = time.perf_counter()
@@ -84,11 +91,17 @@ def evaluate_with(kernels, material, cmats, ep, evp) -> tuple[float, solids.Poin
         solids.kernels = new_kernels
 
 
-def compare(old_kernels, material, cmats, ep, evp, repeats: int) -> tuple[float, float, bool]:
-    """Best time per point [us] of the old and the new kernels, and whether they agree.
+def compare(old_kernels, material, cmats, ep, evp, repeats: int):
+    """Best time per point [us] of the old and the new kernels, and how they agree.
 
     The runs alternate and the best of ``repeats`` counts, which keeps the ratio
     robust to other load on the machine.
+
+    Returns:
+        (old us/point, new us/point, stresses and plastic state bit-identical, median
+        over the points of the largest relative difference of their tangents: the
+        difference tangent's truncation error; its maximum is of order 1 at the few
+        points whose +/-h perturbations straddle the yield surface).
     """
     for kernels in (old_kernels, new_kernels):  # compile or load from cache
         evaluate_with(kernels, material, cmats[:10], ep[:10], evp[:10])
@@ -97,18 +110,31 @@ def compare(old_kernels, material, cmats, ep, evp, repeats: int) -> tuple[float,
         t_old, r_old = evaluate_with(old_kernels, material, cmats, ep, evp)
         t_new, r_new = evaluate_with(new_kernels, material, cmats, ep, evp)
         best_old, best_new = min(best_old, t_old), min(best_new, t_new)
-    same = all(np.array_equal(a, b) for a, b in zip(r_old[:4], r_new[:4], strict=True)
+    same = all(np.array_equal(a, b) for a, b in
+               zip((r_old.S, r_old.ep, r_old.evp), (r_new.S, r_new.ep, r_new.evp), strict=True)
                if a is not None)
+    d_diff = float(np.median(np.abs(r_old.D - r_new.D).max(axis=1)
+                             / np.abs(r_old.D).max(axis=1)))
     n = cmats.shape[0]
-    return 1e6 * best_old / n, 1e6 * best_new / n, same
+    return 1e6 * best_old / n, 1e6 * best_new / n, same, d_diff
+
+
+def elastic_cmats(n: int, seed: int = 2) -> np.ndarray:
+    """``n`` tensors of strains below 0.5% (no point of either core yields)."""
+    rng = np.random.default_rng(seed)
+    a = 0.0005 * rng.standard_normal((n, 3, 3))
+    f = np.eye(3)[None] + a + a.transpose(0, 2, 1)
+    return np.einsum("nki,nkj->nij", f, f).reshape(n, 9)
 
 
 def main() -> None:
-    """Print us/point for old and new kernels for each honeycomb-core material."""
+    """Print us/point of old and new kernels, plastic and elastic points, each material."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=20_000)
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--old", default="HEAD", help="git revision of the old kernels")
+    parser.add_argument("--old", default="89ee46e",
+                        help="git revision of the old kernels (default: the last one with "
+                             "the difference tangent only)")
     args = parser.parse_args()
 
     cm0 = random_cmats(args.points, seed=0)
@@ -116,22 +142,31 @@ def main() -> None:
     rng = np.random.default_rng(1)
     pert = 0.02 * rng.standard_normal((args.points, 3, 3))
     cm1 = cm0 + 0.5 * (pert + pert.transpose(0, 2, 1)).reshape(-1, 9)
+    cm_el = elastic_cmats(args.points)
     materials = {
         "foam transverse": honeycomb_core("transverse"),
         "foam isotropic": honeycomb_core("isotropic"),
-        "elastic": honeycomb_core(plastic=False),
+        "elastic transverse": honeycomb_core("transverse", plastic=False),
+        "elastic isotropic": honeycomb_core("isotropic", plastic=False),
     }
     with tempfile.TemporaryDirectory() as tmp:
         old_kernels = load_old_kernels(args.old, Path(tmp))
-        print(f"{'material':18s} {'old us/pt':>10s} {'new us/pt':>10s} {'speed-up':>9s}  "
-              "same results")
+        print("| material | points | old us/pt | new us/pt | speed-up | same stress | "
+              "tangent difference |\n|---|---|---|---|---|---|---|")
         for name, mat in materials.items():
             r0 = solids.evaluate(mat, cm0, want_tangent=False)
             ep = r0.ep if r0.ep is not None else np.zeros((args.points, 6))
             evp = r0.evp if r0.evp is not None else np.zeros(args.points)
-            t_old, t_new, same = compare(old_kernels, mat, cm1, ep, evp, args.repeats)
-            print(f"{name:18s} {t_old:10.2f} {t_new:10.2f} {t_old / t_new:8.2f}x  {same}",
-                  flush=True)
+            sets = {"elastic": (cm_el, np.zeros_like(ep), np.zeros_like(evp))}
+            if mat.plastic:
+                sets = {"plastic": (cm1, ep, evp)} | sets
+            for label, (cm, e, v) in sets.items():
+                if label == "plastic":
+                    r = solids.evaluate(mat, cm, e, v, want_tangent=False)
+                    label = f"plastic ({np.mean(r.evp != v):.0%} yield)"
+                t_old, t_new, same, d_diff = compare(old_kernels, mat, cm, e, v, args.repeats)
+                print(f"| {name} | {label} | {t_old:.2f} | {t_new:.2f} | {t_old / t_new:.1f}x | "
+                      f"{same} | {d_diff:.1e} |", flush=True)
 
 
 if __name__ == "__main__":
