@@ -327,7 +327,7 @@ class Simulation:
             "mesh": {"cells": sum(comm.allreduce(b.n_local_cells) for b in bodies),
                      "dofs": sum(b.V.dofmap.index_map.size_global * 3 for b in bodies),
                      "quadrature_points_per_cell": bodies[0].n_points
-                     // max(len(bodies[0].cells), 1),
+                     // max(bodies[0].n_local_cells, 1),
                      "symmetry_copies": job.scene.symmetry_copies},
             "versions": compat.versions(),
             "outputs": ["summary.json", "history.csv", *self.fields.outputs(),

@@ -76,7 +76,10 @@ class SolidBody(BodyBase):
                                                                       degree=q))
         self.S = fem.Function(self.QS, name="S")
         self.D = fem.Function(self.QD, name="D")
-        self._qdofs = self.QS.dofmap.list[self.cells].ravel()
+        # the kernel runs on the owned cells only: the forms integrate over them alone,
+        # so the quadrature data of ghost cells is never read
+        self.point_cells = self.cells[: self.n_local_cells]
+        self._qdofs = self.QS.dofmap.list[self.point_cells].ravel()
         self.n_points = self._qdofs.size
         (self.dx,) = domain.dx(q)  # solve forms: on the scene mesh
         self.own_dx = domain.own_dx(q)  # post-processing: on the body's mesh
@@ -138,7 +141,7 @@ class SolidBody(BodyBase):
                 and np.array_equal(self._evaluated_at, key)):
             return
         t0 = time.perf_counter()
-        cj = self._C_expr.eval(self.mesh, self.cells).reshape(-1, 10)
+        cj = self._C_expr.eval(self.mesh, self.point_cells).reshape(-1, 10)
         n_inverted = int(np.count_nonzero(cj[:, 9] <= 0.0))
         if n_inverted:  # C alone cannot tell an inverted element
             self._evaluated_at = None
@@ -214,14 +217,13 @@ class SolidBody(BodyBase):
 
     def min_det_F(self) -> float:
         """Smallest Jacobian determinant over the quadrature points of all ranks."""
-        cj = self._C_expr.eval(self.mesh, self.cells[: self.n_local_cells]).reshape(-1, 10)
+        cj = self._C_expr.eval(self.mesh, self.point_cells).reshape(-1, 10)
         local = float(cj[:, 9].min()) if cj.size else np.inf
         return self.mesh.comm.allreduce(local, op=MPI.MIN)
 
     def cell_average(self, values: np.ndarray) -> np.ndarray:
-        """Average of point values over each local cell (owned cells only)."""
-        per_cell = values.reshape(len(self.cells), -1)[: self.n_local_cells]
-        return per_cell.mean(axis=1)
+        """Average of point values (of :attr:`point_cells`) over each owned cell."""
+        return values.reshape(self.n_local_cells, -1).mean(axis=1)
 
     def warnings(self) -> list[str]:
         """A crushing strain beyond the last point of the material's curve (collective).

@@ -26,7 +26,7 @@ class PlasticStrainField:
         Q = fem.functionspace(body.mesh, basix.ufl.quadrature_element(
             body.mesh.basix_cell(), value_shape=(), degree=body.quadrature_degree))
         self.evp = fem.Function(Q, name="evp")
-        self._dofs = Q.dofmap.list[body.cells].ravel()
+        self._dofs = Q.dofmap.list[body.point_cells].ravel()
         self._forms: dict[str, fem.Form] = {}
 
     def update(self) -> None:
