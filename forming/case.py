@@ -141,46 +141,61 @@ class SolverChoice:
     solver: typing.Literal["implicit", "explicit"] | None = None
 
 
-def split_solver_settings(assignments: list[str]) -> tuple[list[str], list[str], list[str]]:
-    """Split ``--set`` items into the solver choice, ``explicit.*`` settings and the rest."""
-    choice, explicit, rest = [], [], []
+SOLVER_PREFIXES = ("explicit.", "newton.")
+
+
+def split_solver_settings(assignments: list[str]) -> tuple[list[str], dict[str, list[str]],
+                                                           list[str]]:
+    """Split ``--set`` items into the solver choice, solver settings and the rest.
+
+    Returns:
+        (``solver=...`` items, ``{"explicit.": [...], "newton.": [...]}`` with the prefix
+        removed, the case's own items).
+    """
+    choice, rest = [], []
+    settings: dict[str, list[str]] = {p: [] for p in SOLVER_PREFIXES}
     for item in assignments:
         key = item.split("=", 1)[0].strip()
+        prefix = next((p for p in SOLVER_PREFIXES if key.startswith(p)), None)
         if key == "solver":
             choice.append(item)
-        elif key.startswith("explicit."):
-            explicit.append(item.strip()[len("explicit."):])
+        elif prefix is not None:
+            settings[prefix].append(item.strip()[len(prefix):])
         else:
             rest.append(item)
-    return choice, explicit, rest
+    return choice, settings, rest
 
 
-def apply_solver_settings(job, choice: list[str], explicit: list[str]):
-    """The job with the solver and explicit settings given on the command line."""
-    from forming.solver.options import ExplicitOptions
+def _with_settings(options, items: list[str], prefix: str):
+    """``options`` (a frozen dataclass) with the ``key=value`` items replacing fields."""
+    if not items:
+        return options
+    given = parse_params(type(options), items, prefix)
+    keys = {item.split("=", 1)[0].strip() for item in items}
+    return dataclasses.replace(options, **{k: getattr(given, k) for k in keys})
 
+
+def apply_solver_settings(job, choice: list[str], settings: dict[str, list[str]]):
+    """The job with the solver, explicit and Newton settings given on the command line."""
     picked = parse_params(SolverChoice, choice)
     if picked.solver is not None:
         job = dataclasses.replace(job, solver=picked.solver)
-    if explicit:
-        base = dataclasses.asdict(job.explicit)
-        given = dataclasses.asdict(parse_params(ExplicitOptions, explicit, "explicit."))
-        keys = {item.split("=", 1)[0].strip() for item in explicit}
-        job = dataclasses.replace(job, explicit=ExplicitOptions(
-            **(base | {k: given[k] for k in keys})))
-    return job
+    return dataclasses.replace(
+        job, explicit=_with_settings(job.explicit, settings["explicit."], "explicit."),
+        newton=_with_settings(job.newton, settings["newton."], "newton."))
 
 
 def prepare_case(name: str, assignments: list[str], build=None, params_cls=None):
     """The job of case ``name`` with ``--set`` assignments, and its parameters as recorded.
 
-    Besides the case's parameters every case accepts ``solver=implicit|explicit`` and
-    ``explicit.<setting>=value`` (:class:`~forming.solver.options.ExplicitOptions`).
+    Besides the case's parameters every case accepts ``solver=implicit|explicit``,
+    ``explicit.<setting>=value`` (:class:`~forming.solver.options.ExplicitOptions`) and
+    ``newton.<setting>=value`` (:class:`~forming.solver.options.NewtonOptions`).
     """
     if build is None:
         module = load_case(name)
         build, params_cls = module.build, module.Params
-    choice, explicit, rest = split_solver_settings(assignments)
+    choice, settings, rest = split_solver_settings(assignments)
     params = parse_params(params_cls, rest)
     try:
         job = build(params)
@@ -190,7 +205,7 @@ def prepare_case(name: str, assignments: list[str], build=None, params_cls=None)
         given = " ".join(f"--set {a}" for a in rest) or "its defaults"
         raise InputError(exc.field, f"{str(exc).split(': ', 1)[-1]} (building case {name} "
                          f"with {given})") from exc
-    job = apply_solver_settings(job, choice, explicit)
+    job = apply_solver_settings(job, choice, settings)
     return job, dataclasses.asdict(params)
 
 

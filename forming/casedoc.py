@@ -108,7 +108,7 @@ def case_list(folder: Path) -> list[tuple[str, str]]:
 
 def case_help(name: str, doc: str, params_cls: type) -> str:
     """The help text of a case: what it is, its parameters, and the common settings."""
-    from forming.solver.options import ExplicitOptions
+    from forming.solver.options import ExplicitOptions, NewtonOptions
 
     intro = plain(doc.split("\nRun:")[0].strip())
     return "\n".join([
@@ -119,7 +119,10 @@ def case_help(name: str, doc: str, params_cls: type) -> str:
         "every case also takes:",
         "  solver              implicit|explicit  (case's)  Newton in load steps, or "
         "central differences in time",
-        format_params(describe_params(ExplicitOptions), "explicit."), "",
+        format_params(describe_params(ExplicitOptions), "explicit."),
+        format_params([d for d in describe_params(NewtonOptions) if d.name != "petsc"],
+                      "newton."),
+        "  (newton.*: the case's own settings, e.g. line_search, stay unless given)", "",
         "PETSc options follow as -forming_<option> value (e.g. -forming_snes_monitor).",
         "outputs, units and exit codes: README.md.",
     ])

@@ -43,3 +43,15 @@ def assemble_scalar(form: fem.Form) -> float:
     """A compiled scalar form assembled and summed over the ranks of its mesh."""
     comm = form.mesh.comm
     return comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+
+
+def peak_rss_mb(comm: MPI.Comm) -> float:
+    """Peak resident memory of the process, the largest over the ranks [MB].
+
+    ``getrusage``'s ``ru_maxrss`` (kilobytes on Linux): the high-water mark of the whole
+    process since it started, set-up and compilation included.
+    """
+    import resource
+
+    local = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return comm.allreduce(local, op=MPI.MAX)

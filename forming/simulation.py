@@ -30,6 +30,7 @@ from forming.job import Job
 from forming.log import Progress
 from forming.model import Model
 from forming.output import FieldOutput, Recorder, write_final_shape
+from forming.parallel import peak_rss_mb
 from forming.solver import make_solver
 from forming.solver.base import StepResult
 from forming.solver.stepping import Stepper, StepperState, StepTooSmall
@@ -323,6 +324,7 @@ class Simulation:
                 "steps": self.stepper.n_accepted, "rejected_steps": self.stepper.n_rejected,
                 "kernel_s": comm.allreduce(sum(b.kernel_seconds for b in bodies)) / comm.size,
                 "work_name": self.solver.work_name, "work": self._work,
+                "peak_rss_mb": peak_rss_mb(comm),
             } | self.solver.timing(),
             "mesh": {"cells": sum(comm.allreduce(b.n_local_cells) for b in bodies),
                      "dofs": sum(b.V.dofmap.index_map.size_global * 3 for b in bodies),

@@ -95,6 +95,11 @@ class ImplicitSolver:
         snes.setFunction(self._residual, self.problem.b)
         snes.setJacobian(self._jacobian, self.problem.A, None)
         snes.setMonitor(self._monitor)
+        self._one_loop = self.options.multipliers == "newton" and bool(model.constraints)
+        if self._one_loop:
+            snes.setConvergenceTest(self._converged)
+        self._fnorm0 = 0.0
+        self._updates = 0
         if self.options.linear_solver == "gamg":
             if len(bodies) > 1:
                 raise InputError("solver.linear_solver",
@@ -103,7 +108,12 @@ class ImplicitSolver:
         self._residuals: list[float] = []
         self._failure: str | None = None
         self._u_prev: list[np.ndarray] | None = None
+        # cost split: material kernels, assembly (callbacks less kernels), SNES (all of
+        # Newton; the linear solves are what remains), contact checks and updates
         self.assembly_seconds = 0.0
+        self._kernel_s = 0.0
+        self._newton_s = 0.0
+        self._contact_s = 0.0
         self._force_scale = 0.0
         self._u_before: list[np.ndarray] | None = None
         self._work_total = 0
@@ -119,12 +129,15 @@ class ImplicitSolver:
         assign(x, self._u)
         for b in self._bodies:
             b.u.x.scatter_forward()
+        t0 = time.perf_counter()
         try:
             # the tangent too: the Dirichlet lifting inside the residual uses the Jacobian
             for b in self._bodies:
                 b.update_material(want_tangent=True)
         except KernelFailure as exc:
             return str(exc)
+        finally:
+            self._kernel_s += time.perf_counter() - t0
         return None
 
     def _residual(self, snes, x, b) -> None:
@@ -151,6 +164,55 @@ class ImplicitSolver:
 
     def _monitor(self, snes, its, norm) -> None:
         self._residuals.append(float(norm))
+
+    # -- contact multipliers inside Newton (multipliers="newton") -------------------------
+    def _violation(self) -> float:
+        """Largest constraint violation at the current iterate, in tolerance units."""
+        t0 = time.perf_counter()
+        worst = max(c.violation() / c.tolerance for c in self.model.constraints)
+        self._contact_s += time.perf_counter() - t0
+        return worst
+
+    def _augment(self, snes) -> None:
+        """Multipliers take the tractions of the current iterate; residual recomputed.
+
+        The residual vector SNES solves with next is overwritten, so the following
+        Newton step is for the new multipliers. (SNES's own copy of the residual norm
+        stays the old one; only the backtracking line search reads it.)
+        """
+        t0 = time.perf_counter()
+        for c in self.model.constraints:
+            c.augment()
+        self._contact_s += time.perf_counter() - t0
+        self._updates += 1
+        self._residual(snes, snes.getSolution(), snes.getFunction()[0])
+
+    def _converged(self, snes, its: int, norms) -> int:
+        """SNES's residual test, then the constraints: one Newton loop per step.
+
+        The residual test is PETSc's default (``atol``, or ``rtol`` times the step's first
+        residual). A residual within it whose multipliers would still change by more
+        than the contact tolerance does not end the solve: the multipliers take the
+        tractions (:meth:`_augment`) and Newton goes on from the same iterate with the
+        new residual. Below the tolerance the multipliers stay, so the converged
+        traction is the one the solution was computed with.
+        """
+        _xnorm, _ynorm, fnorm = norms
+        rtol, atol, _stol, max_it = snes.getTolerances()
+        if its == 0:
+            self._fnorm0 = fnorm
+        if not np.isfinite(fnorm):  # (a failed line-search trial is not the iterate)
+            return PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_NANORINF
+        absolute = fnorm < atol
+        if absolute or (its > 0 and fnorm <= rtol * self._fnorm0):
+            if self._violation() <= 1.0:
+                return (PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS if absolute
+                        else PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE)
+            if its < max_it and self._updates < self.options.max_augmentations:
+                self._augment(snes)
+        if its >= max_it:
+            return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
+        return PETSc.SNES.ConvergedReason.ITERATING
 
     # -- evaluation at a given iterate (verification) ------------------------------------
     def residual_at(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
@@ -189,6 +251,7 @@ class ImplicitSolver:
     def _newton(self) -> tuple[bool, str]:
         snes = self.problem.solver
         self._failure = None
+        t0 = time.perf_counter()
         try:
             self.problem.solve()
             code = snes.getConvergedReason()
@@ -196,6 +259,7 @@ class ImplicitSolver:
             ok = code > 0 and all(np.isfinite(self._residuals))
         except (KernelFailure, PETSc.Error) as exc:
             ok, reason = False, f"error: {exc}"
+        self._newton_s += time.perf_counter() - t0
         if self._failure and not ok:
             reason = f"{reason} ({self._failure})"
         return ok, reason
@@ -203,8 +267,10 @@ class ImplicitSolver:
     def solve(self) -> StepResult:
         """Run Newton from the current iterate.
 
-        With contact, repeat with updated multipliers (Uzawa) until every pair's
-        constraint violation is within its tolerance.
+        With contact, the multipliers converge inside the one Newton solve
+        (``multipliers="newton"``), or Newton is repeated with updated multipliers
+        (``"uzawa"``) until every pair's constraint violation is within its tolerance;
+        :attr:`StepResult.augmentations` counts the multiplier updates either way.
         """
         self._residuals = []
         t0 = time.perf_counter()
@@ -213,20 +279,23 @@ class ImplicitSolver:
             snes.setTolerances(atol=max(self.options.atol,
                                         self.options.force_rtol * self._force_scale))
         iterations = 0
-        contacts = self.model.constraints
+        contacts = [] if self._one_loop else self.model.constraints
         ok, reason, aug = False, "", 0
+        self._updates = 0
         for aug in range(self.options.max_augmentations + 1):
             ok, reason = self._newton()
             iterations += snes.getIterationNumber()
             if not ok or not contacts:
                 break
+            t_contact = time.perf_counter()
             worst = max(c.violation() / c.tolerance for c in contacts)
             if worst <= 1.0:
+                self._contact_s += time.perf_counter() - t_contact
                 break  # keep the multipliers the solution was computed with
-            if aug == self.options.max_augmentations:
-                continue  # no further solve: leave the loop through its else branch
-            for c in contacts:
-                c.augment()
+            if aug < self.options.max_augmentations:
+                for c in contacts:
+                    c.augment()
+            self._contact_s += time.perf_counter() - t_contact
         else:
             ok, reason = False, (f"contact constraints not met after "
                                  f"{self.options.max_augmentations} augmentations")
@@ -235,7 +304,7 @@ class ImplicitSolver:
         self._work_total += iterations
         self._last_work = iterations
         return StepResult(ok, iterations, list(self._residuals), reason,
-                          time.perf_counter() - t0, aug)
+                          time.perf_counter() - t0, self._updates if self._one_loop else aug)
 
     def accept(self, force_scale: float) -> None:
         """Keep what the next step needs.
@@ -277,11 +346,32 @@ class ImplicitSolver:
         return {}
 
     def timing(self) -> dict:
-        """Newton iterations in total (rejected steps included) and per accepted step."""
+        """Newton iterations and the cost split, rank means [s].
+
+        ``newton_iterations`` counts rejected steps too; ``newton_per_step`` is over
+        accepted steps. ``kernel_s`` is the material kernels inside Newton,
+        ``assembly_s`` the residual and Jacobian callbacks less the kernels,
+        ``linear_solve_s`` the rest of Newton (factorisation and solves), ``contact_s``
+        the constraint checks and multiplier updates between Newton solves;
+        ``per_iteration_ms`` divides each by the Newton iterations.
+        """
+        comm = self.model.comm
+
+        def mean(x: float) -> float:
+            return comm.allreduce(x) / comm.size
+
+        kernel = mean(self._kernel_s)
+        callbacks = mean(self.assembly_seconds)
+        newton = mean(self._newton_s)
+        split = {"kernel_s": kernel, "assembly_s": callbacks - kernel,
+                 "linear_solve_s": newton - callbacks, "contact_s": mean(self._contact_s)}
+        its = max(self._work_total, 1)
         return {"newton_iterations": self._work_total,
                 "newton_per_step": self._work_accepted / max(self._steps, 1),
-                "assembly_s": self.model.comm.allreduce(self.assembly_seconds)
-                / self.model.comm.size}
+                "assembly_s": split["assembly_s"],
+                "newton_split_s": split,
+                "per_iteration_ms": {k.removesuffix("_s"): 1e3 * v / its
+                                     for k, v in split.items()}}
 
     def parameters(self) -> dict:
         """Nothing beyond the case's parameters."""

@@ -30,8 +30,12 @@ class NewtonOptions:
         max_it: Newton iterations before a step counts as failed.
         line_search: ``"basic"`` (full Newton step) or ``"bt"`` (backtracking).
         predictor: ``"extrapolate"`` (linear in the load parameter) or ``"previous"``.
-        max_augmentations: Uzawa updates of the contact multipliers per step before the
-            step counts as failed.
+        multipliers: How the contact multipliers converge. ``"newton"`` (default): inside
+            the one Newton solve of a step, updated whenever the residual is within its
+            tolerance but the constraints are not, which ends when both hold.
+            ``"uzawa"``: a Newton solve per multiplier update (the first wave's outer
+            loop, kept for comparison).
+        max_augmentations: Multiplier updates per step before the step counts as failed.
         petsc: Extra PETSc options for the SNES prefix, overriding the defaults; the
             command line (``-forming_<key> value``) overrides both.
     """
@@ -43,6 +47,7 @@ class NewtonOptions:
     max_it: int = 25
     line_search: Literal["basic", "bt"] = "basic"
     predictor: Literal["extrapolate", "previous"] = "extrapolate"
+    multipliers: Literal["newton", "uzawa"] = "newton"
     max_augmentations: int = 25
     petsc: dict[str, str] = field(default_factory=dict)
 
@@ -56,6 +61,9 @@ class NewtonOptions:
         if self.predictor not in ("extrapolate", "previous"):
             raise InputError("solver.predictor", f"must be 'extrapolate' or 'previous', got "
                              f"{self.predictor!r}")
+        if self.multipliers not in ("newton", "uzawa"):
+            raise InputError("solver.multipliers", f"must be 'newton' or 'uzawa', got "
+                             f"{self.multipliers!r}")
         if not self.force_rtol >= 0.0:
             raise InputError("solver.force_rtol", f"must be >= 0, got {self.force_rtol}")
         if self.max_it < 1:
