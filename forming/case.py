@@ -309,7 +309,7 @@ def add_restart_arguments(parser: argparse.ArgumentParser) -> None:
     """``--checkpoint-every`` and ``--restart`` options of a case run."""
     parser.add_argument("--checkpoint-every", type=int, default=None, metavar="N",
                         help="write a checkpoint (checkpoint.npz) every N converged steps "
-                             "(0: none; default: the case's, 0 for every shipped case); "
+                             "(0: none; default 10, or the case's own); "
                              "Ctrl-C and SIGTERM always leave one")
     parser.add_argument("--restart", type=Path, default=None, metavar="DIR",
                         help="continue the run in DIR from its checkpoint, on any number of "

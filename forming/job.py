@@ -81,7 +81,7 @@ class Job:
     plots: Plots | None = None
     pictures: Pictures | None = None
     field_every: int = 1
-    checkpoint_every: int = 0
+    checkpoint_every: int = 10
     solver: Literal["implicit", "explicit"] = "implicit"
     explicit: ExplicitOptions = field(default_factory=ExplicitOptions)
     response: Response | None = None
