@@ -67,7 +67,9 @@ def _case_help(command: str, name: str) -> int:
     except InputError as exc:
         print(f"forming: {exc}", file=sys.stderr)
         return 2
-    print(f"usage: forming {command} {name} [--out DIR] [--set KEY=VALUE ...] [--quiet]\n")
+    restart = " [--checkpoint-every N] [--restart DIR]" if command == "run" else ""
+    print(f"usage: forming {command} {name} [--out DIR] [--set KEY=VALUE ...] [--quiet]"
+          f"{restart}\n")
     print(case_help(name, module.__doc__ or "", module.Params))
     return 0
 
