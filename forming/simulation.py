@@ -12,6 +12,11 @@ a condition of its own, reads :attr:`Simulation.model`, and calls :meth:`finish`
     while not sim.done and sim.t < 0.5:
         sim.step()
     summary = sim.finish()
+
+:meth:`Simulation.checkpoint` holds the state in memory; :meth:`Simulation.save_checkpoint`
+writes it to ``out/checkpoint.npz`` (every ``job.checkpoint_every`` steps, and when a stop
+request ends the run), and ``Simulation(job, out, ..., restart=True)`` resumes from it, on
+any number of ranks (:mod:`forming.restart`).
 """
 
 from __future__ import annotations
@@ -42,6 +47,8 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class Checkpoint:
     """The whole state of a simulation between two steps (held in memory).
+
+    :meth:`Simulation.save_checkpoint` writes it to disk (:mod:`forming.restart`).
 
     Attributes:
         model: The model's snapshot (displacements, history, multipliers).
@@ -337,6 +344,8 @@ class Simulation:
                                 "restart": f"forming run {self.case} --restart {self.out}"}
         log.info("checkpoint at step %d (%s) written in %.2f s", st.n_accepted,
                  self.progress.where(st.t), time.perf_counter() - t0)
+        if self._finished is None:  # a run killed from here on says where to resume
+            self.recorder.write_summary(self._header())
         return self.last_checkpoint
 
     def _resume(self, state: dict, meta: dict) -> None:
