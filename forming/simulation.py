@@ -105,8 +105,7 @@ class Simulation:
         self.last_checkpoint: dict | None = None
         stored = None
         if restart:  # read before anything in the folder changes
-            stored = disk.load(disk.checkpoint_path(out), self._layout(),
-                                  job.scene.mesh.mesh)
+            stored = disk.load(disk.checkpoint_path(out), self._layout(), job.scene.mesh.mesh)
         self.recorder = Recorder(out, self.comm, resume=restart)
         self.run_record = provenance.run_record() if self.comm.rank == 0 else {}
         self.status = "running"
@@ -335,18 +334,23 @@ class Simulation:
         t0 = time.perf_counter()
         try:
             disk.save(path, {"model": cp.model, "solver": cp.solver}, self._layout(), meta,
-                         self.job.scene.mesh.mesh)
+                      self.job.scene.mesh.mesh)
         except OSError as exc:
             log.warning("checkpoint not written (%s); the previous one stays", exc)
             return None
-        self.last_checkpoint = {"file": path.name, "step": st.n_accepted, "t": st.t,
-                                "reason": reason,
-                                "restart": f"forming run {self.case} --restart {self.out}"}
+        self.last_checkpoint = self._checkpoint_record(st.n_accepted, st.t, reason)
         log.info("checkpoint at step %d (%s) written in %.2f s", st.n_accepted,
                  self.progress.where(st.t), time.perf_counter() - t0)
         if self._finished is None:  # a run killed from here on says where to resume
             self.recorder.write_summary(self._header())
         return self.last_checkpoint
+
+    def _checkpoint_record(self, step: int, t: float, reason: str) -> dict:
+        """What ``summary.json`` says of the checkpoint: file, step, why, how to resume."""
+        how = (f"forming run {self.case} --restart {self.out}" if self.assignments is not None
+               else "Simulation(job, out, restart=True) with the job that wrote it")
+        return {"file": disk.FILE_NAME, "step": step, "t": t, "reason": reason,
+                "restart": how}
 
     def _resume(self, state: dict, meta: dict) -> None:
         """Continue from a checkpoint read from disk (a restart)."""
@@ -360,9 +364,8 @@ class Simulation:
                                "t": cp.stepper.t, "ranks": meta["ranks"],
                                "reason": meta["reason"], "written": meta["written"],
                                "earlier_fields": self.recorder.earlier_fields}
-        self.last_checkpoint = {"file": disk.FILE_NAME, "step": cp.stepper.n_accepted,
-                                "t": cp.stepper.t, "reason": meta["reason"],
-                                "restart": f"forming run {self.case} --restart {self.out}"}
+        self.last_checkpoint = self._checkpoint_record(cp.stepper.n_accepted, cp.stepper.t,
+                                                       meta["reason"])
         self.write_fields()  # the new field series starts at the checkpoint
         self.recorder.write_summary(self._header())
         log.info("restarted from the checkpoint at step %d (%s), written on %d rank(s)",
