@@ -209,15 +209,85 @@ def prepare_case(name: str, assignments: list[str], build=None, params_cls=None)
     return job, dataclasses.asdict(params)
 
 
-def run_case(name: str, out: Path, assignments: list[str], build=None, params_cls=None) -> dict:
+def _settings(assignments: list[str], params_cls: type) -> dict[str, object]:
+    """Every setting that ``--set`` items give a job: the case's, the solver's."""
+    from forming.solver.options import ExplicitOptions, NewtonOptions
+
+    choice, settings, rest = split_solver_settings(assignments)
+    out = dict(dataclasses.asdict(parse_params(params_cls, rest)))
+    out["solver"] = parse_params(SolverChoice, choice).solver
+    for prefix, cls in (("explicit.", ExplicitOptions), ("newton.", NewtonOptions)):
+        given = dataclasses.asdict(parse_params(cls, settings[prefix], prefix))
+        out |= {f"{prefix}{k}": v for k, v in given.items()}
+    return out
+
+
+def restart_settings(name: str, folder: Path, given: list[str], params_cls: type
+                     ) -> tuple[list[str], dict]:
+    """The ``--set`` items of the run whose checkpoint is in ``folder``, and its metadata.
+
+    A restart rebuilds the job from the items the run was started with; items given
+    again must not change any setting.
+
+    Raises:
+        InputError: ``folder`` is missing or holds no readable checkpoint, the checkpoint
+            is of another case, or ``given`` changes a setting.
+    """
+    from forming import restart
+
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError("--restart", f"{folder} is not a folder"
+                         + ("" if folder.exists() else " (it does not exist)"))
+    meta = restart.read_meta(restart.checkpoint_path(folder))
+    if meta.get("case") != name:
+        raise InputError("--restart", f"{folder} holds a run of case {meta.get('case')!r}, not "
+                         f"{name!r}: forming run {meta.get('case')} --restart {folder}")
+    stored = meta.get("assignments")
+    if stored is None:
+        raise InputError("--restart", f"{restart.checkpoint_path(folder)} was written by a "
+                         "simulation built in Python, with no --set record: restart it with "
+                         "Simulation(job, out, restart=True)")
+    if given:
+        before, after = _settings(stored, params_cls), _settings(stored + given, params_cls)
+        changed = sorted(k for k in after if after[k] != before[k])
+        if changed:
+            was = ", ".join(f"{k}={before[k]}" for k in changed)
+            raise InputError("--set", f"a restart continues the run in {folder}, computed with "
+                             f"{was}: it cannot change {changed} (start a new run instead)")
+    return list(stored), meta
+
+
+def run_case(name: str, out: Path, assignments: list[str], build=None, params_cls=None,
+             checkpoint_every: int | None = None, restart: bool = False) -> dict:
     """Run case ``name`` with ``--set`` assignments; write the output contract into ``out``.
 
     See :func:`prepare_case` for the settings every case accepts.
+
+    Args:
+        name: The case.
+        out: Output folder (with ``restart``: the folder of the run to continue).
+        assignments: ``--set`` items.
+        build: The case's ``build`` (None: load the case by name).
+        params_cls: The case's ``Params``.
+        checkpoint_every: Write a checkpoint every this many converged steps (None: the
+            job's own setting; on restart, the interrupted run's).
+        restart: Continue the run in ``out`` from its checkpoint, with the settings it
+            was started with (:func:`restart_settings`).
     """
     from forming.run import simulate
 
+    if build is None:
+        module = load_case(name)
+        build, params_cls = module.build, module.Params
+    if restart:
+        assignments, meta = restart_settings(name, Path(out), assignments, params_cls)
+        if checkpoint_every is None:
+            checkpoint_every = meta.get("checkpoint_every")
     job, params = prepare_case(name, assignments, build, params_cls)
-    return simulate(job, Path(out), name, params)
+    if checkpoint_every is not None:
+        job = dataclasses.replace(job, checkpoint_every=checkpoint_every)  # validated
+    return simulate(job, Path(out), name, params, list(assignments), restart)
 
 
 def apply_petsc_args(extra: list[str]) -> None:
@@ -252,6 +322,18 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
                         help="warnings and errors only, no progress line")
 
 
+def add_restart_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--checkpoint-every`` and ``--restart`` options of a case run."""
+    parser.add_argument("--checkpoint-every", type=int, default=None, metavar="N",
+                        help="write a checkpoint (checkpoint.npz) every N converged steps "
+                             "(0: none; default 10, or the case's own); "
+                             "Ctrl-C and SIGTERM always leave one")
+    parser.add_argument("--restart", type=Path, default=None, metavar="DIR",
+                        help="continue the run in DIR from its checkpoint, on any number of "
+                             "ranks, with the settings it was started with (--set may only "
+                             "repeat them)")
+
+
 def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
             params_cls=None) -> int:
     """Run a case from parsed arguments; report where the outputs are.
@@ -267,11 +349,17 @@ def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
 
     setup(quiet=getattr(args, "quiet", False))
     comm = MPI.COMM_WORLD
-    out = args.out or Path("results") / name
+    restart = getattr(args, "restart", None)
+    out = restart or args.out or Path("results") / name
 
     def run() -> dict:
+        if restart is not None and args.out is not None and (
+                Path(args.out).resolve() != Path(restart).resolve()):
+            raise InputError("--out", "a restart continues in the folder of its run "
+                             f"({restart}): leave out --out")
         apply_petsc_args(extra)
-        return run_case(name, out, args.assignments, build, params_cls)
+        return run_case(name, out, args.assignments, build, params_cls,
+                        getattr(args, "checkpoint_every", None), restart is not None)
 
     summary, code = guarded(comm, run)
     if code is not None:
@@ -344,5 +432,6 @@ def main(build, params_cls, name: str) -> None:
         prog=f"{name}.py", formatter_class=argparse.RawDescriptionHelpFormatter,
         description=case_help(name, getattr(module, "__doc__", None) or "", params_cls))
     add_run_arguments(parser)
+    add_restart_arguments(parser)
     args, extra = parser.parse_known_args()
     raise SystemExit(execute(name, args, extra, build, params_cls))

@@ -2,6 +2,8 @@
 
 forming list                               the cases, one line each
 forming run CASE [--out DIR] [--set KEY=VALUE ...] [-forming_<petsc_option> VALUE]
+                 [--checkpoint-every N]
+forming run CASE --restart DIR [--checkpoint-every N]   continue from DIR's checkpoint
 forming run CASE --help                    every parameter of CASE
 forming compare CASE [--out DIR] [--set KEY=VALUE ...] [--reuse]
 forming drape CASE [--tool NAME] [--out DIR] [--set KEY=VALUE ...] [--spacing D] [--angle DEG]
@@ -15,7 +17,7 @@ import logging
 import sys
 from pathlib import Path
 
-from forming.case import REPO, add_run_arguments, execute
+from forming.case import REPO, add_restart_arguments, add_run_arguments, execute
 
 log = logging.getLogger("forming")
 
@@ -65,7 +67,9 @@ def _case_help(command: str, name: str) -> int:
     except InputError as exc:
         print(f"forming: {exc}", file=sys.stderr)
         return 2
-    print(f"usage: forming {command} {name} [--out DIR] [--set KEY=VALUE ...] [--quiet]\n")
+    restart = " [--checkpoint-every N] [--restart DIR]" if command == "run" else ""
+    print(f"usage: forming {command} {name} [--out DIR] [--set KEY=VALUE ...] [--quiet]"
+          f"{restart}\n")
     print(case_help(name, module.__doc__ or "", module.Params))
     return 0
 
@@ -182,6 +186,7 @@ def main(argv: list[str] | None = None) -> None:
     run = sub.add_parser("run", help="run a case (forming run CASE --help: its parameters)")
     run.add_argument("case", help="case name (forming list)")
     add_run_arguments(run)
+    add_restart_arguments(run)
     cmp_ = sub.add_parser("compare", help="run a case with both solvers and compare them")
     cmp_.add_argument("case", help="case name (forming list)")
     add_run_arguments(cmp_)

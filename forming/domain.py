@@ -23,6 +23,47 @@ from forming.mesh import MeshData
 
 
 @dataclass(frozen=True)
+class CellLayout:
+    """Where the entries of a state array live: blocks of values per cell of a body's mesh.
+
+    A checkpoint on disk stores such an array cell by cell, keyed by the original index
+    of the scene-mesh cell (the mesh generator's numbering), so that it can be read back
+    on another partition or number of ranks (:mod:`forming.restart`).
+
+    Attributes:
+        keys: Partition-independent key of every local cell (owned, then ghost): the
+            original index of its scene-mesh cell.
+        n_owned: Number of owned cells (the first ``n_owned`` keys).
+        entries: (cells, blocks per cell): each cell's blocks in the array.
+        bs: Values per block.
+        shape: Shape of the whole local array.
+    """
+
+    keys: np.ndarray
+    n_owned: int
+    entries: np.ndarray
+    bs: int
+    shape: tuple[int, ...]
+
+    def rows(self, values: np.ndarray) -> np.ndarray:
+        """The owned cells' values, one row per cell (blocks of the cell side by side)."""
+        blocks = np.asarray(values).reshape(-1, self.bs)[self.entries[: self.n_owned]]
+        return blocks.reshape(self.n_owned, self.width)
+
+    @property
+    def width(self) -> int:
+        """Values per cell."""
+        return self.entries.shape[1] * self.bs
+
+    def fill(self, rows: np.ndarray) -> np.ndarray:
+        """The local array from one row per local cell (owned and ghost), as :meth:`rows`."""
+        out = np.zeros(self.shape)
+        n_cells, per_cell = self.entries.shape
+        out.reshape(-1, self.bs)[self.entries] = rows.reshape(n_cells, per_cell, self.bs)
+        return out
+
+
+@dataclass(frozen=True)
 class BodyDomain:
     """The mesh of one body and its relation to the scene mesh.
 
@@ -76,6 +117,37 @@ class BodyDomain:
         """Owned then ghost cells of the body's own mesh."""
         imap = self.mesh.topology.index_map(3)
         return np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+
+    def cell_keys(self) -> np.ndarray:
+        """Original (mesh-generator) index of the scene-mesh cell of every own cell.
+
+        The same cell has the same key on any partition and number of ranks.
+        """
+        original = self.md.mesh.topology.original_cell_index
+        return np.asarray(original, dtype=np.int64)[self.parent_cells]
+
+    def layout(self, space: fem.FunctionSpace) -> CellLayout:
+        """Layout of the values of a function on ``space`` (a space on :attr:`mesh`)."""
+        dofmap = space.dofmap
+        imap = dofmap.index_map
+        bs = dofmap.index_map_bs
+        return CellLayout(self.cell_keys(), self.n_owned_cells, dofmap.list, bs,
+                          ((imap.size_local + imap.num_ghosts) * bs,))
+
+    def point_layout(self, points_per_cell: int, width: int | None) -> CellLayout:
+        """Layout of an array over the quadrature points of the owned cells, cell by cell.
+
+        The point kernels run on owned cells only, so such arrays (``(points, width)``)
+        have no ghost part.
+
+        Args:
+            points_per_cell: Quadrature points of a cell.
+            width: Values per point (None: a 1-D array, one value per point).
+        """
+        n_cells = self.n_owned_cells
+        entries = np.arange(n_cells * points_per_cell).reshape(n_cells, points_per_cell)
+        shape = (n_cells * points_per_cell,) + (() if width is None else (width,))
+        return CellLayout(self.cell_keys()[:n_cells], n_cells, entries, width or 1, shape)
 
     @property
     def entity_maps(self) -> list:

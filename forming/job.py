@@ -61,6 +61,8 @@ class Job:
         pictures: PNG pictures of the final state, ``pictures(model, out) -> paths``
             (collective: gathers on rank 0).
         field_every: Write ParaView fields every this many converged steps (and last).
+        checkpoint_every: Write a checkpoint (``checkpoint.npz``, for ``--restart``)
+            every this many converged steps; 0: none (a stop request still writes one).
         solver: ``"implicit"`` (Newton, load steps) or ``"explicit"`` (central
             differences in time; a step is then an output interval).
         explicit: Settings of the explicit solver.
@@ -79,6 +81,7 @@ class Job:
     plots: Plots | None = None
     pictures: Pictures | None = None
     field_every: int = 1
+    checkpoint_every: int = 10
     solver: Literal["implicit", "explicit"] = "implicit"
     explicit: ExplicitOptions = field(default_factory=ExplicitOptions)
     response: Response | None = None
@@ -87,6 +90,9 @@ class Job:
     def __post_init__(self) -> None:
         if self.field_every < 1:
             raise InputError("job.field_every", f"must be >= 1, got {self.field_every}")
+        if self.checkpoint_every < 0:
+            raise InputError("--checkpoint-every",
+                             f"must be >= 0 (0: none), got {self.checkpoint_every}")
 
     def travel_mm(self) -> float | None:
         """Travel at load parameter 1 [mm] (:meth:`forming.scene.Scene.travel_mm`)."""

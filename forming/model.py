@@ -289,6 +289,12 @@ class Model:
         for c, cs in zip(self.constraints, snap["contacts"], strict=True):
             c.restore(cs)
 
+    def snapshot_layout(self) -> dict:
+        """Where the arrays of :meth:`snapshot` live (a checkpoint on disk, forming.restart)."""
+        return {"t": None,
+                "bodies": [b.snapshot_layout() for b in self.bodies.values()],
+                "contacts": [c.snapshot_layout() for c in self.constraints]}
+
     def displacements(self) -> list[np.ndarray]:
         """Copies of every body's displacement array, in :attr:`names` order."""
         return [b.u.x.array.copy() for b in self.bodies.values()]

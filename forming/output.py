@@ -10,6 +10,7 @@ import csv
 import json
 import math
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -47,7 +48,8 @@ def json_safe(value):
 
 
 RUN_FILES = ("summary.json", "summary.json.tmp", "history.csv", "history.csv.tmp",
-             "final_shape.npz", "*.png", "*.bp", "*.pvd", "*.vtkhdf", "tools")
+             "final_shape.npz", "*.png", "*.bp", "*.pvd", "*.vtkhdf", "tools",
+             "checkpoint.npz", "checkpoint.npz.tmp")
 """What a run writes into its folder (glob patterns); a rerun removes these first."""
 
 
@@ -91,19 +93,59 @@ def prepare_output_folder(out: Path, comm: MPI.Comm) -> None:
         raise InputError("--out", problem)
 
 
+def keep_field_series(out: Path, comm: MPI.Comm) -> list[str]:
+    """Rename the field series of an earlier run in ``out`` to the next free ``partN``.
+
+    A restarted run writes its fields afresh (an ADIOS2 VTX series cannot be appended
+    to); the series of the run it continues stay beside them: ``displacement.bp`` becomes
+    ``displacement.part1.bp`` (``part2`` after a second restart), likewise
+    ``tool_<name>.pvd``.
+
+    Returns:
+        The new names (collective: every rank gets them).
+
+    Raises:
+        OSError: On every rank, when a file could not be renamed.
+    """
+    renamed, problem = [], None
+    if comm.rank == 0:
+        current = [p for p in (*out.glob("*.bp"), *out.glob("tool_*.pvd"))
+                   if ".part" not in p.name]
+        used = [int(m.group(1)) for p in out.iterdir()
+                if (m := re.search(r"\.part(\d+)\.(bp|pvd)$", p.name))]
+        part = max(used, default=0) + 1
+        try:
+            for p in sorted(current):
+                new = p.with_name(f"{p.stem}.part{part}{p.suffix}")
+                p.rename(new)
+                renamed.append(new.name)
+        except OSError as exc:
+            problem = f"{out}: {exc.strerror or exc}"
+    renamed, problem = comm.bcast((renamed, problem), root=0)
+    if problem is not None:
+        raise OSError(problem)
+    return renamed
+
+
 class Recorder:
     """Writes the run's history rows, fields and summary into ``out``.
 
     Args:
         out: Output folder (created).
         comm: Communicator of the run.
+        resume: Continue the run in ``out`` (a restart): nothing is cleared, and the
+            earlier field series are kept under new names (:func:`keep_field_series`).
     """
 
-    def __init__(self, out: Path, comm: MPI.Comm):
+    def __init__(self, out: Path, comm: MPI.Comm, resume: bool = False):
         self.out = Path(out)
         self.comm = comm
         self.rows: list[dict[str, float]] = []
-        prepare_output_folder(self.out, comm)
+        self.earlier_fields: list[str] = []
+        if resume:
+            self.earlier_fields = keep_field_series(self.out, comm)
+        else:
+            prepare_output_folder(self.out, comm)
         self._writers: list = []
         self._stems: list[str] = []
 

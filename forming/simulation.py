@@ -12,10 +12,16 @@ a condition of its own, reads :attr:`Simulation.model`, and calls :meth:`finish`
     while not sim.done and sim.t < 0.5:
         sim.step()
     summary = sim.finish()
+
+:meth:`Simulation.checkpoint` holds the state in memory; :meth:`Simulation.save_checkpoint`
+writes it to ``out/checkpoint.npz`` (every ``job.checkpoint_every`` steps, and when a stop
+request ends the run), and ``Simulation(job, out, ..., restart=True)`` resumes from it, on
+any number of ranks (:mod:`forming.restart`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from dataclasses import dataclass
@@ -24,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from forming import compat, provenance, signals
+from forming import restart as disk
 from forming.errors import InputError
 from forming.history import STROKE, force_column, merge, reaction_column, whole_part
 from forming.job import Job
@@ -41,6 +48,8 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class Checkpoint:
     """The whole state of a simulation between two steps (held in memory).
+
+    :meth:`Simulation.save_checkpoint` writes it to disk (:mod:`forming.restart`).
 
     Attributes:
         model: The model's snapshot (displacements, history, multipliers).
@@ -65,10 +74,20 @@ class Simulation:
         out: Output folder (created).
         case: Name of the case (recorded in ``summary.json``).
         parameters: The case's parameters (recorded in ``summary.json``).
+        assignments: The ``--set`` items the job was built from (recorded in
+            ``summary.json`` and in checkpoints, so that ``--restart`` can rebuild it).
+        restart: Continue the run in ``out`` from its checkpoint (``checkpoint.npz``): the
+            job must be the one that wrote it. History rows past the checkpoint are
+            dropped; the earlier field series are kept as ``<stem>.partN.bp``.
+
+    Raises:
+        InputError: The scene is invalid, or (restart) the checkpoint is missing,
+            unreadable or written by another model; the folder is then left untouched.
     """
 
     def __init__(self, job: Job, out: Path, case: str = "run",
-                 parameters: dict | None = None):
+                 parameters: dict | None = None, assignments: list[str] | None = None,
+                 restart: bool = False):
         self._t_start = time.perf_counter()
         self.job = job
         self.case = case
@@ -82,7 +101,13 @@ class Simulation:
         self.solver = make_solver(job, self.model)
         self.stepper = Stepper(self.solver.step_control(job.steps))
         self.jit_s = time.perf_counter() - self._t_start
-        self.recorder = Recorder(out, self.comm)
+        self.assignments = None if assignments is None else list(assignments)
+        self.restarted_from: dict | None = None
+        self.last_checkpoint: dict | None = None
+        stored = None
+        if restart:  # read before anything in the folder changes
+            stored = disk.load(disk.checkpoint_path(out), self._layout(), job.scene.mesh.mesh)
+        self.recorder = Recorder(out, self.comm, resume=restart)
         self.run_record = provenance.run_record() if self.comm.rank == 0 else {}
         self.status = "running"
         self.reason = ""
@@ -95,6 +120,8 @@ class Simulation:
         self._work = 0  # the solver's work over every attempted step
         self._started = False
         self._finished: dict | None = None
+        if stored is not None:
+            self._resume(*stored)
 
     def _header(self) -> dict:
         """The summary fields known from the start."""
@@ -102,7 +129,9 @@ class Simulation:
                 "load_parameter_reached": self.stepper.t, "run": self.run_record,
                 "solver": self.solver.kind, "ranks": self.comm.size,
                 "parameters": self.parameters | {"solver": self.solver.kind}
-                | self.solver.parameters()}
+                | self.solver.parameters(), "assignments": self.assignments,
+                "checkpoint_every": self.job.checkpoint_every,
+                "checkpoint": self.last_checkpoint, "restarted_from": self.restarted_from}
 
     # -- state -------------------------------------------------------------------------
     @property
@@ -167,6 +196,9 @@ class Simulation:
                                f"{res.work} {solver.work_name}", res.seconds)
             if stepper.n_accepted % self.job.field_every == 0 or stepper.done:
                 self.write_fields()
+            every = self.job.checkpoint_every
+            if every and stepper.n_accepted % every == 0 and not stepper.done:
+                self.save_checkpoint(f"every {every} steps")
             return res
         self.model.restore(state[0])
         solver.restore(state[1])
@@ -192,6 +224,7 @@ class Simulation:
                        f"(load parameter {self.t:.6g})")
         self.model.set_load(self.stepper.t)
         log.warning("run stopped: %s", self.reason)
+        self.save_checkpoint(f"interrupted by {self.signal}")  # --restart goes on from here
         return res
 
     def _fail(self, reason: str, res: StepResult) -> StepResult:
@@ -272,6 +305,73 @@ class Simulation:
         self._fields_at = cp.fields_at
         self.status, self.reason = "running", ""
 
+    # -- checkpoints on disk ---------------------------------------------------------------
+    def _layout(self) -> dict:
+        """Where the arrays of a checkpoint's snapshots live (forming.restart)."""
+        return {"model": self.model.snapshot_layout(), "solver": self.solver.snapshot_layout()}
+
+    def save_checkpoint(self, reason: str = "asked") -> dict | None:
+        """Write the current state to ``checkpoint.npz`` for ``--restart`` (collective).
+
+        The file holds :meth:`checkpoint` (model, solver, stepper, history rows), readable
+        on any number of ranks (:mod:`forming.restart`). A write that fails is logged and
+        the run goes on with its previous checkpoint.
+
+        Args:
+            reason: Why it is written (recorded in the file and in ``summary.json``).
+
+        Returns:
+            What ``summary.json`` records of it, or None if it could not be written.
+        """
+        cp = self.checkpoint()
+        st = cp.stepper
+        meta = {"case": self.case, "assignments": self.assignments, "step": st.n_accepted,
+                "t": st.t, "ranks": self.comm.size, "reason": reason,
+                "written": provenance.now() if self.comm.rank == 0 else "",
+                "stepper": dataclasses.asdict(st), "fields_at": cp.fields_at,
+                "work": self._work, "checkpoint_every": self.job.checkpoint_every,
+                "rows": self.recorder.rows[: cp.rows]}
+        path = disk.checkpoint_path(self.out)
+        t0 = time.perf_counter()
+        try:
+            disk.save(path, {"model": cp.model, "solver": cp.solver}, self._layout(), meta,
+                      self.job.scene.mesh.mesh)
+        except OSError as exc:
+            log.warning("checkpoint not written (%s); the previous one stays", exc)
+            return None
+        self.last_checkpoint = self._checkpoint_record(st.n_accepted, st.t, reason)
+        log.info("checkpoint at step %d (%s) written in %.2f s", st.n_accepted,
+                 self.progress.where(st.t), time.perf_counter() - t0)
+        if self._finished is None:  # a run killed from here on says where to resume
+            self.recorder.write_summary(self._header())
+        return self.last_checkpoint
+
+    def _checkpoint_record(self, step: int, t: float, reason: str) -> dict:
+        """What ``summary.json`` says of the checkpoint: file, step, why, how to resume."""
+        how = (f"forming run {self.case} --restart {self.out}" if self.assignments is not None
+               else "Simulation(job, out, restart=True) with the job that wrote it")
+        return {"file": disk.FILE_NAME, "step": step, "t": t, "reason": reason,
+                "restart": how}
+
+    def _resume(self, state: dict, meta: dict) -> None:
+        """Continue from a checkpoint read from disk (a restart)."""
+        cp = Checkpoint(state["model"], state["solver"], StepperState(**meta["stepper"]),
+                        len(meta["rows"]), meta["fields_at"])
+        self.recorder.rows = list(meta["rows"])
+        self.restore(cp)
+        self._started = True
+        self._work = meta["work"]
+        self.restarted_from = {"file": disk.FILE_NAME, "step": cp.stepper.n_accepted,
+                               "t": cp.stepper.t, "ranks": meta["ranks"],
+                               "reason": meta["reason"], "written": meta["written"],
+                               "earlier_fields": self.recorder.earlier_fields}
+        self.last_checkpoint = self._checkpoint_record(cp.stepper.n_accepted, cp.stepper.t,
+                                                       meta["reason"])
+        self.write_fields()  # the new field series starts at the checkpoint
+        self.recorder.write_summary(self._header())
+        log.info("restarted from the checkpoint at step %d (%s), written on %d rank(s)",
+                 cp.stepper.n_accepted, self.progress.where(cp.stepper.t), meta["ranks"])
+
     def _hook(self, name: str, fn, *args):
         """Call a case hook; an exception fails the run but keeps what was computed."""
         if fn is None:
@@ -333,7 +433,8 @@ class Simulation:
                      "symmetry_copies": job.scene.symmetry_copies},
             "versions": compat.versions(),
             "outputs": ["summary.json", "history.csv", *self.fields.outputs(),
-                        "final_shape.npz"],
+                        "final_shape.npz", *self.recorder.earlier_fields]
+            + ([disk.FILE_NAME] if self.last_checkpoint else []),
         }
         if self.signal is not None:
             summary["signal"] = self.signal

@@ -74,6 +74,14 @@ class DeformableBody(Protocol):
     def restore(self, snap: tuple) -> None:
         """Return to a snapshot."""
 
+    def snapshot_layout(self) -> tuple:
+        """Where the arrays of :meth:`snapshot` live (:class:`~forming.domain.CellLayout`).
+
+        The same structure as the snapshot, with a layout in place of every array that
+        is distributed over the mesh (None elsewhere): a checkpoint on disk stores those
+        arrays cell by cell, readable on another number of ranks (:mod:`forming.restart`).
+        """
+
     def contact_stiffness(self) -> float:
         """Modulus [MPa] that sets default contact penalties."""
 
@@ -140,6 +148,10 @@ class BodyBase:
         """Return to a snapshot."""
         self.u.x.array[:] = snap[0]
         self.invalidate()
+
+    def snapshot_layout(self) -> tuple:
+        """The displacement's layout (see :meth:`snapshot`)."""
+        return (self.domain.layout(self.V), None)
 
     def warnings(self) -> list[str]:
         """None by default."""

@@ -199,6 +199,15 @@ class SolidBody(BodyBase):
         self.S.x.array[:] = snap[2]
         self.invalidate()
 
+    def snapshot_layout(self) -> tuple:
+        """Layouts of the displacement, the plastic state (per point) and the stress."""
+        plastic = None
+        if self.plastic is not None:
+            per_cell = self.QS.dofmap.list.shape[1]  # points per cell
+            plastic = (self.domain.point_layout(per_cell, 6),
+                       self.domain.point_layout(per_cell, None))
+        return (self.domain.layout(self.V), plastic, self.domain.layout(self.QS))
+
     def contact_stiffness(self) -> float:
         """Largest diagonal elastic modulus [MPa] (sets default contact penalties)."""
         return float(np.max(np.diag(self.material.kernel_data().cel)))

@@ -55,6 +55,12 @@ class Constraint(Protocol):
     def restore(self, snap: tuple) -> None:
         """Return to a snapshot."""
 
+    def snapshot_layout(self) -> tuple:
+        """The snapshot's structure with a layout for each array over a mesh, else None.
+
+        See :meth:`forming.bodies.base.DeformableBody.snapshot_layout`.
+        """
+
     def penetration(self) -> float:
         """Largest penetration of the current state [mm]."""
 

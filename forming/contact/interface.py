@@ -289,6 +289,13 @@ class InterfaceTerm:
         self.u1_prev.x.array[:] = snap[2]
         self.u2_prev.x.array[:] = snap[3]
 
+    def snapshot_layout(self) -> tuple:
+        """Layouts of the multipliers (on the first body) and of both slip references."""
+        first, second = self.first.domain, self.second.domain
+        return (None if self.lam_n is None else first.layout(self.lam_n.function_space),
+                None if self.lam_t is None else first.layout(self.lam_t.function_space),
+                first.layout(self.first.V), second.layout(self.second.V))
+
     # -- outputs --------------------------------------------------------------------------
     def slip(self) -> tuple[np.ndarray, np.ndarray]:
         """Tangential slip vectors [mm] and reference coordinates of this rank's nodes."""

@@ -207,6 +207,14 @@ class ContactTerm:
             self.u_prev.x.array[:] = snap[2]
             self._offset_prev.value[:] = snap[3]
 
+    def snapshot_layout(self) -> tuple:
+        """Layouts of the multipliers and the slip reference (the tool offset is global)."""
+        dom = self.body.domain
+        if self.lam_t is None:
+            return (dom.layout(self.lam_n.function_space), None, None, None)
+        return (dom.layout(self.lam_n.function_space), dom.layout(self.lam_t.function_space),
+                dom.layout(self.u_prev.function_space), None)
+
     # -- outputs -----------------------------------------------------------------------
     def force(self) -> np.ndarray:
         """Force the body exerts on the tool [N] (a punch pushed down feels +z)."""

@@ -82,6 +82,12 @@ class Solver(Protocol):
     def restore(self, snap: object) -> None:
         """Return to a snapshot (after a failed step, or to restart)."""
 
+    def snapshot_layout(self) -> object:
+        """The snapshot's structure with a layout for each array over a mesh, else None.
+
+        See :meth:`forming.bodies.base.DeformableBody.snapshot_layout`.
+        """
+
     def tool_force(self, contact) -> np.ndarray:
         """Force of a contact's body on its tool as reported in the history [N]."""
 

@@ -352,6 +352,14 @@ class ExplicitSolver:
         for t, vec in zip(self._terms, terms, strict=True):
             t.vec.x.array[:] = vec
 
+    def snapshot_layout(self) -> tuple:
+        """Velocities, accelerations and force vectors are per body; the rest is global."""
+        def on(st: BodyState):
+            return st.body.domain.layout(st.body.V)
+
+        return ([(on(st),) * 4 for st in self.states], [on(t.state) for t in self._terms],
+                None, None, None, None, None, None)
+
     # -- reporting --------------------------------------------------------------------------
     def balance(self) -> float:
         """Energy balance: kinetic + internal + friction + damping - external work [N mm]."""

@@ -325,6 +325,10 @@ class ImplicitSolver:
         """Return to a snapshot."""
         self._u_prev, self._force_scale, self._steps, self._work_accepted = snap
 
+    def snapshot_layout(self) -> tuple:
+        """The predictor's displacements are per body; the rest is global."""
+        return ([b.domain.layout(b.V) for b in self._bodies], None, None, None)
+
     # -- reporting ---------------------------------------------------------------------
     def tool_force(self, contact) -> np.ndarray:
         """The static force of the converged state."""
