@@ -7,14 +7,14 @@ import logging
 import time
 
 import numpy as np
-from dolfinx import fem  # noqa: I001
 from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_residual, assign
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from forming import compat, signals  # noqa: F401
-from forming.errors import InputError, KernelFailure
+from forming.errors import KernelFailure
 from forming.model import Model
+from forming.solver import linear
 from forming.solver.base import StepResult
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
@@ -23,27 +23,6 @@ log = logging.getLogger(__name__)
 _ids = itertools.count()
 
 _REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
-
-
-def _rigid_body_modes(V: fem.FunctionSpace) -> PETSc.NullSpace:
-    """Near-null space of 3D elasticity (translations and rotations) for GAMG."""
-    x = V.tabulate_dof_coordinates()
-    bs = V.dofmap.index_map_bs
-    n = V.dofmap.index_map.size_local
-    vecs = [fem.Function(V) for _ in range(6)]
-    for i in range(3):
-        vecs[i].x.array.reshape(-1, bs)[:n, i] = 1.0
-    xs = x[:n]
-    vecs[3].x.array.reshape(-1, bs)[:n, 0] = -xs[:, 1]
-    vecs[3].x.array.reshape(-1, bs)[:n, 1] = xs[:, 0]
-    vecs[4].x.array.reshape(-1, bs)[:n, 1] = -xs[:, 2]
-    vecs[4].x.array.reshape(-1, bs)[:n, 2] = xs[:, 1]
-    vecs[5].x.array.reshape(-1, bs)[:n, 0] = xs[:, 2]
-    vecs[5].x.array.reshape(-1, bs)[:n, 2] = -xs[:, 0]
-    from dolfinx import la
-
-    la.orthonormalize([v.x for v in vecs])
-    return PETSc.NullSpace().create(vectors=[v.x.petsc_vec for v in vecs], comm=V.mesh.comm)
 
 
 class ImplicitSolver:
@@ -100,11 +79,7 @@ class ImplicitSolver:
             snes.setConvergenceTest(self._converged)
         self._fnorm0 = 0.0
         self._updates = 0
-        if self.options.linear_solver == "gamg":
-            if len(bodies) > 1:
-                raise InputError("solver.linear_solver",
-                                 "'gamg' supports one body; use 'mumps' for several bodies")
-            self.problem.A.setNearNullSpace(_rigid_body_modes(bodies[0].V))
+        linear.configure(self.problem.A, [b.V for b in bodies], self.options)
         self._residuals: list[float] = []
         self._failure: str | None = None
         self._u_prev: list[np.ndarray] | None = None

@@ -19,7 +19,8 @@ class NewtonOptions:
 
     Attributes:
         linear_solver: ``"mumps"`` (direct LU, default) or ``"gamg"`` (GMRES + smoothed
-            aggregation AMG with rigid-body near-null space, for large models).
+            aggregation AMG with the model's rigid-body modes as near-null space, one
+            body or several: :mod:`.linear`).
         rtol: Residual reduction relative to the first residual of a step.
         atol: Absolute residual norm [N].
         force_rtol: Newton also stops when the residual norm is below this fraction of
@@ -88,8 +89,8 @@ class NewtonOptions:
         else:
             # GMRES: the foam's non-associated flow makes the tangent unsymmetric
             opts |= {"ksp_type": "gmres", "pc_type": "gamg", "ksp_rtol": "1e-10",
-                     "pc_gamg_threshold": "0.01", "mg_levels_ksp_type": "chebyshev",
-                     "mg_levels_pc_type": "jacobi"}
+                     "ksp_max_it": "1000", "pc_gamg_threshold": "0.01",
+                     "mg_levels_ksp_type": "chebyshev", "mg_levels_pc_type": "jacobi"}
         return opts | dict(self.petsc)
 
 
