@@ -54,7 +54,7 @@ class ImplicitSolver:
             self.problem = NonlinearProblem(
                 model.residuals()[0], body.u, bcs=bcs, J=model.jacobians()[0][0],
                 petsc_options_prefix=self.prefix, petsc_options=opts,
-                entity_maps=model.entity_maps or None,
+                entity_maps=model.entity_maps or None, jit_options=compat.SOLVE_JIT_OPTIONS,
             )
         else:
             # one monolithic matrix over all bodies' unknowns (MUMPS cannot factor MATNEST)
@@ -62,7 +62,7 @@ class ImplicitSolver:
             self.problem = NonlinearProblem(
                 model.residuals(), self._u, bcs=bcs, J=model.jacobians(), kind="mpi",
                 petsc_options_prefix=self.prefix, petsc_options=opts,
-                entity_maps=model.entity_maps or None,
+                entity_maps=model.entity_maps or None, jit_options=compat.SOLVE_JIT_OPTIONS,
             )
         snes = self.problem.solver
         self._fctx = {"u": self._u, "residual": self.problem.F, "jacobian": self.problem.J,
