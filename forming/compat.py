@@ -19,7 +19,6 @@ import dolfinx.fem.petsc  # noqa: E402,F401
 import dolfinx.io  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
-
 # C compiler flags of the solve forms (residual and Jacobian): vectorised for the machine
 # that runs them (the FFCx cache is per machine). DOLFINx's default is "-O2 -g0".
 SOLVE_JIT_OPTIONS = {"cffi_extra_compile_args": ["-O3", "-march=native"]}
