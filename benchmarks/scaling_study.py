@@ -1,0 +1,116 @@
+"""Scaling of the implicit solver: the sandwich under the hemisphere with blank holder.
+
+For each mesh, number of ranks and linear solver: wall time, Newton iterations per
+accepted step, the cost of one Newton iteration split into material kernel, assembly,
+linear solve and contact (``timing.per_iteration_ms`` of summary.json, rank means),
+and the peak resident memory (largest rank). Then the exponent ``p`` of a fit
+``t_iteration = a N^p`` over the meshes (N unknowns), per solver and rank count, and
+what it gives at 10^6 unknowns. Writes docs/performance.md's ``scaling`` section.
+
+The stroke is shortened (``--stroke``, default 10 mm of the 50) so that the finer
+meshes fit in a session: the per-iteration figures do not depend on it.
+
+Run: ``python benchmarks/scaling_study.py`` (defaults below; each run is a separate
+process, nothing else should run on the machine).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from _report import REPO, machine, run_case_process, update_section
+
+MESHES = ("6,6,2", "12,12,3", "24,24,4")
+SPLIT = ("kernel", "assembly", "linear_solve", "contact")
+
+
+def fit_exponent(dofs: list[float], times: list[float]) -> tuple[float, float] | None:
+    """Least-squares ``(a, p)`` of ``t = a N^p`` in log-log (None below two points)."""
+    if len(dofs) < 2:
+        return None
+    p, log_a = np.polyfit(np.log(dofs), np.log(times), 1)
+    return float(np.exp(log_a)), float(p)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--meshes", nargs="+", default=list(MESHES))
+    parser.add_argument("--ranks", nargs="+", type=int, default=[1, 2])
+    parser.add_argument("--solvers", nargs="+", default=["mumps", "gamg"])
+    parser.add_argument("--stroke", type=float, default=10.0)
+    parser.add_argument("--json", type=Path, default=None, help="also write the rows here")
+    args = parser.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for cells in args.meshes:
+            for solver in args.solvers:
+                for ranks in args.ranks:
+                    out = Path(tmp) / f"{cells}_{solver}_{ranks}"
+                    s = run_case_process(
+                        "hemisphere", out, ranks, allow_failure=True,
+                        sets=("skins=true", "blank_holder=true", f"cells={cells}",
+                              f"stroke={args.stroke}", f"newton.linear_solver={solver}"))
+                    t = s["timing"]
+                    rows.append({
+                        "cells": cells, "solver": solver, "ranks": ranks,
+                        "status": s["status"], "dofs": s["mesh"]["dofs"],
+                        "wall_s": t["wall_s"], "steps": t["steps"],
+                        "newton": t["newton_iterations"],
+                        "newton_per_step": t["newton_per_step"],
+                        "split_ms": t.get("per_iteration_ms", {}),
+                        "peak_rss_mb": t.get("peak_rss_mb", float("nan")),
+                        "force_N": s["metrics"].get("punch_force_max_N", float("nan")),
+                    })
+                    print(json.dumps(rows[-1]), flush=True)
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=1))
+    lines = [
+        f"Measured with `python benchmarks/scaling_study.py "
+        f"--meshes {' '.join(args.meshes)} --stroke {args.stroke:g}` on {machine()}: "
+        f"`hemisphere --set skins=true --set blank_holder=true`, the first "
+        f"{args.stroke:g} mm of the stroke. Per-iteration times are rank means [ms].", "",
+        "| mesh | unknowns | solver | ranks | status | wall [s] | steps | Newton/step "
+        "| kernel | assembly | linear solve | contact | per iteration | peak RSS [MB] "
+        "| punch force [N] |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        sp = r["split_ms"]
+        total = sum(sp.get(k, 0.0) for k in SPLIT)
+        lines.append(
+            f"| {r['cells']} | {r['dofs']} | {r['solver']} | {r['ranks']} | {r['status']} "
+            f"| {r['wall_s']:.1f} | {r['steps']} | {r['newton_per_step']:.2f} | "
+            + " | ".join(f"{sp.get(k, float('nan')):.1f}" for k in SPLIT)
+            + f" | {total:.1f} | {r['peak_rss_mb']:.0f} | {r['force_N']:.2f} |")
+    lines.append("")
+    for solver in args.solvers:
+        for ranks in args.ranks:
+            sel = [r for r in rows if r["solver"] == solver and r["ranks"] == ranks
+                   and r["status"] == "completed"]
+            fit = fit_exponent([r["dofs"] for r in sel],
+                               [sum(r["split_ms"].get(k, 0.0) for k in SPLIT) for r in sel])
+            if fit is None:
+                continue
+            a, p = fit
+            lines.append(f"- {solver}, {ranks} rank(s): time per Newton iteration ~ "
+                         f"N^{p:.2f} over {len(sel)} meshes; at 10^6 unknowns "
+                         f"{a * 1e6 ** p / 1e3:.0f} s per iteration by this fit.")
+    for cells in args.meshes:
+        for solver in args.solvers:
+            pair = {r["ranks"]: r for r in rows if r["cells"] == cells
+                    and r["solver"] == solver and r["status"] == "completed"}
+            if 1 in pair and 2 in pair:
+                same = pair[1]["newton"] == pair[2]["newton"]
+                lines.append(f"- {cells}, {solver}: 2-rank speed-up "
+                             f"{pair[1]['wall_s'] / pair[2]['wall_s']:.2f}"
+                             + ("" if same else " (the Newton histories differ)") + ".")
+    update_section("scaling", "\n".join(lines), REPO / "docs" / "performance.md")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
