@@ -156,13 +156,24 @@ def geometric_terms(c, t, s_fac, sig, measure, want_gk, w):
         _sym33(sig, sg33)
     for n in range(6):
         _unit33(n, k33)
-        # X = T : L[dC] / 2 for dC = e_n; symmetric
+        # X = T : L[dC] / 2 for dC = e_n (symmetric). With K = dC, X_pq = sum_b T_pb
+        # f2(p, q, b) K_qb + sum_b K_pb T_bq f2(b, p, q); K has one or two non-zeros, so
+        # only the rows and columns of its indices a, b receive terms.
         for p in range(3):
-            for q in range(p, 3):
-                v = 0.0
-                for b in range(3):
-                    v += t33[p, b] * f2[p, q, b] * k33[q, b] + k33[p, b] * t33[b, q] * f2[b, p, q]
-                x33[p, q] = x33[q, p] = v
+            for q in range(3):
+                x33[p, q] = 0.0
+        a = _MI[n]
+        b = _MJ[n]
+        if a == b:
+            for p in range(3):
+                x33[p, a] += t33[p, a] * f2[p, a, a]
+                x33[a, p] += t33[a, p] * f2[a, a, p]
+        else:
+            for p in range(3):
+                x33[p, a] += _INV_SQRT2 * t33[p, b] * f2[p, a, b]
+                x33[p, b] += _INV_SQRT2 * t33[p, a] * f2[p, b, a]
+                x33[a, p] += _INV_SQRT2 * t33[b, p] * f2[b, a, p]
+                x33[b, p] += _INV_SQRT2 * t33[a, p] * f2[a, b, p]
         for m in range(6):
             p = _MI[m]
             q = _MJ[m]
