@@ -25,7 +25,7 @@ Run: ``python cases/hemisphere.py --set blank_holder=true`` (add ``skins=true``)
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
 
@@ -75,6 +75,7 @@ class Params:
     skin_smoothing: float = 0.0  # smoothed interface pressure ramp (fraction)
     tool_stick: Literal["auto", "augmented", "elastic_slip"] = "auto"  # tool stick law
     line_search: Literal["auto", "basic", "bt"] = "auto"  # Newton line search
+    tool_penalty: float | None = None  # tool contact penalty [N/mm^3]; none: 10 C_max / h
 
 
 def hinges_at_zero_pressure(p: Params) -> bool:
@@ -99,7 +100,8 @@ def contact_numerics(p: Params) -> tuple[str, str]:
 
 
 def build(p: Params) -> Job:
-    require(p, positive=("size", "thickness", "punch_diameter", "die_diameter", "stroke"),
+    require(p, positive=("size", "thickness", "punch_diameter", "die_diameter", "stroke")
+            + (("tool_penalty",) if p.tool_penalty is not None else ()),
             nonnegative=("friction", "edge_radius", "skin_friction", "tool_skin_friction"))
     if p.punch_diameter >= p.die_diameter:
         raise InputError("--set punch_diameter", f"{p.punch_diameter:g} mm does not pass the "
@@ -115,6 +117,8 @@ def build(p: Params) -> Job:
     tools, contacts = hemisphere_tools(
         b, p.punch_diameter, p.die_diameter, p.edge_radius, p.stroke,
         p.tool_skin_friction if p.skins else p.friction, p.blank_holder, stick)
+    if p.tool_penalty is not None:
+        contacts = tuple(replace(c, penalty=p.tool_penalty) for c in contacts)
     scene = Scene(name="hemisphere", mesh=b.mesh, bodies=b.bodies, displacements=b.symmetry(),
                   tools=tools, contacts=contacts, interfaces=b.interfaces, symmetry_copies=4)
     title = "Hemisphere" + (" + holder" if p.blank_holder else "")

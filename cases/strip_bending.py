@@ -18,8 +18,8 @@ the neutral axis, and its end moments ``mu (P / 2) t / 2`` cut the midspan defle
 Beam theory leaves out the indentation under the punch and over the supports.
 
 The transverse core bends with E = 0.2 MPa against G = 1.56 MPa: 8-node hexahedra with
-full integration add a parasitic shear of order ``(G / E) (a / h)^2`` of the bending
-energy (element length a, height h), so coarse meshes overstiffen it
+full integration add a parasitic shear of order ``(G / E) (a / t)^2`` of the bending
+energy (element length a along the strip), so coarse meshes overstiffen it
 (docs/validation.md). Run: ``python cases/strip_bending.py --set elasticity=transverse``.
 """
 
