@@ -5,9 +5,17 @@ hemispherical punch over a 50 mm stroke, tool-core friction 0.36, with or withou
 blank holder (``--set blank_holder=true``). Quarter model; figures are for the whole
 core. The paper's finding: without a holder the core conforms mainly by bending with
 little crushing; with one, crushing under the punch increases. The die and holder edge
-radii (10 mm) are estimates. The core is isotropic (the paper's Abaqus form); a small
-viscous regularisation (``viscosity``, 0.15 MPa mm) lets Newton follow the softening curve,
-within about 2% of the rate-independent force (docs/validation.md).
+radii (10 mm) are estimates. The core is isotropic by default (the paper's Abaqus form);
+``--set elasticity=transverse`` takes the measured moduli (15 MPa through the thickness,
+0.2 MPa in-plane, 1.56 MPa transverse shear). A small viscous regularisation
+(``viscosity``, 0.15 MPa mm) lets Newton follow the softening curve, within about 2% of the
+rate-independent force (docs/validation.md).
+
+Contact numerics (``tool_stick``, ``line_search``; ``auto`` chooses): a transversely
+isotropic core hinges over the die edge on nodes at almost zero pressure, as the skins do
+on the tools; both then use Coulomb friction with elastic slip (stick stiffness
+proportional to the pressure) and full Newton steps. With the augmented stick constraint
+and backtracking the transverse core stalls in the first step (docs/theory.md, section 13).
 
 ``--set skins=true``: the full sandwich, a core between two FCIM359 NCF skins (+/-45 deg,
 0.4 mm per ply) sliding on the core (0.52) and on the tools (0.23); the metrics add each
@@ -17,7 +25,7 @@ Run: ``python cases/hemisphere.py --set blank_holder=true`` (add ``skins=true``)
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
 
@@ -65,10 +73,35 @@ class Params:
     tool_skin_friction: float = TOOL_FABRIC_FRICTION  # tool-skin Coulomb coefficient (paper: 0.23)
     skin_stabilisation: float = 1e-3  # interface stabilisation, fraction of its penalty
     skin_smoothing: float = 0.0  # smoothed interface pressure ramp (fraction)
+    tool_stick: Literal["auto", "augmented", "elastic_slip"] = "auto"  # tool stick law
+    line_search: Literal["auto", "basic", "bt"] = "auto"  # Newton line search
+    tool_penalty: float | None = None  # tool contact penalty [N/mm^3]; none: 10 C_max / h
+
+
+def hinges_at_zero_pressure(p: Params) -> bool:
+    """Whether many contact nodes sit at almost zero pressure through the stroke.
+
+    Skins touch the tools and the core at zero pressure; a transversely isotropic core
+    (in-plane modulus 0.2 MPa, 75 times below its through-thickness modulus) hinges over
+    the die edge, its flange resting on the die (and under the holder) at almost zero
+    pressure. Such nodes need a stick stiffness that vanishes with the pressure (elastic
+    slip) and full Newton steps (docs/theory.md, sections 11 and 13).
+    """
+    return p.skins or p.elasticity == "transverse"
+
+
+def contact_numerics(p: Params) -> tuple[str, str]:
+    """The tool stick law and the Newton line search of the run (resolving ``auto``)."""
+    soft = hinges_at_zero_pressure(p)
+    stick = p.tool_stick if p.tool_stick != "auto" else (
+        "elastic_slip" if soft else "augmented")
+    search = p.line_search if p.line_search != "auto" else ("basic" if soft else "bt")
+    return stick, search
 
 
 def build(p: Params) -> Job:
-    require(p, positive=("size", "thickness", "punch_diameter", "die_diameter", "stroke"),
+    require(p, positive=("size", "thickness", "punch_diameter", "die_diameter", "stroke")
+            + (("tool_penalty",) if p.tool_penalty is not None else ()),
             nonnegative=("friction", "edge_radius", "skin_friction", "tool_skin_friction"))
     if p.punch_diameter >= p.die_diameter:
         raise InputError("--set punch_diameter", f"{p.punch_diameter:g} mm does not pass the "
@@ -78,11 +111,14 @@ def build(p: Params) -> Job:
                   p.skin_stabilisation, p.skin_smoothing) if p.skins else None
     b = rectangular_blank(half, half, p.thickness, p.cells, honeycomb_core(
         p.elasticity, curve=p.curve, viscosity=p.viscosity), skins, p.grading)
-    # fabric on tools: elastic-slip stick, as on the core (augmented stick cycled at zero p)
+    # nodes at zero pressure (fabric on tools, a transverse core's flange): elastic-slip
+    # stick (the augmented stick constraint cycled there) and full Newton steps
+    stick, search = contact_numerics(p)
     tools, contacts = hemisphere_tools(
         b, p.punch_diameter, p.die_diameter, p.edge_radius, p.stroke,
-        p.tool_skin_friction if p.skins else p.friction, p.blank_holder,
-        "elastic_slip" if p.skins else "augmented")
+        p.tool_skin_friction if p.skins else p.friction, p.blank_holder, stick)
+    if p.tool_penalty is not None:
+        contacts = tuple(replace(c, penalty=p.tool_penalty) for c in contacts)
     scene = Scene(name="hemisphere", mesh=b.mesh, bodies=b.bodies, displacements=b.symmetry(),
                   tools=tools, contacts=contacts, interfaces=b.interfaces, symmetry_copies=4)
     title = "Hemisphere" + (" + holder" if p.blank_holder else "")
@@ -106,10 +142,9 @@ def build(p: Params) -> Job:
 
     return Job(scene=scene, steps=StepControl(initial=min(0.02, p.max_step), max=p.max_step,
                                               min=min(p.min_step, p.max_step)),
-               # with skins, full Newton steps: at the first touch every interface node sits
-               # at zero pressure, and backtracking crawled through the open/closed switches
-               newton=NewtonOptions(linear_solver=p.linear_solver,
-                                    line_search="basic" if p.skins else "bt"),
+               # full Newton steps where nodes sit at zero pressure: backtracking on the
+               # residual norm crawled through their open/closed and stick/slip switches
+               newton=NewtonOptions(linear_solver=p.linear_solver, line_search=search),
                probe=post.crushed_volume_probe, metrics=metrics, plots=plots, field_every=5,
                pictures=pictures,
                response=Response("force_punch_z_N", p.stroke, label="punch force"))

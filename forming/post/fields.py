@@ -19,7 +19,7 @@ class PlasticStrainField:
 
     def __init__(self, body: SolidBody):
         if body.plastic is None:
-            raise ValueError(f"body {body.body.name!r} has no plastic state")
+            raise ValueError(f"body {body.name!r} has no plastic state")
         self.body = body
         import basix.ufl
 
