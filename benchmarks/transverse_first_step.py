@@ -1,4 +1,4 @@
-"""Why the transversely isotropic core stalled in the hemisphere's first step (issue 6).
+"""Why the transversely isotropic core stalled in the hemisphere's first step (issue 15, item 6).
 
 The first load step (0.5 mm of punch travel, 8 x 8 x 2 quarter mesh) of
 ``hemisphere --set elasticity=transverse`` with each contact numerics, and the evidence

@@ -1,4 +1,4 @@
-"""The transversely isotropic core over the die: hinging on zero-pressure nodes (issue 6).
+"""The transversely isotropic core over the die: hinging on zero-pressure nodes (issue 15, item 6).
 
 The core's in-plane modulus (0.2 MPa) is 75 times below its through-thickness modulus:
 pressed in its middle it hinges over the die edge, and its flange rests on the tools at
