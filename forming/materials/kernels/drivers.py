@@ -111,16 +111,30 @@ def _load_batch(cmats, start, cs):
 
 
 @_inner
+def _batch_eigen(cmats, ip, cs, ms, qs, active, turn, rcs):
+    """Eigenvalues of C at point ``ip``; diagonalises its batch when ``ip`` starts one.
+
+    The points of a batch are diagonalised together (:func:`.linalg.eig_sym3`), so the
+    latencies of their Jacobi rotations overlap.
+
+    Returns:
+        (the point's index in the batch, its eigenvalues as a 3-tuple); the
+        eigenvectors are ``qs[index]``.
+    """
+    k = ip % _BATCH
+    if k == 0:
+        eig_sym3(cs, _load_batch(cmats, ip, cs), ms, qs, active, turn, rcs)
+    return k, (ms[k, 0, 0], ms[k, 1, 1], ms[k, 2, 2])
+
+
+@_inner
 def _elastic_points_closed(cmats, cel, measure, s_out, d_out, work, twork):
     """Body of :func:`elastic_points` with the closed-form tangent."""
     cs, ms, qs, active, turn, rcs, rot, cr, c_eig, _lu, _s, _ok = work
     geo, mt, tmp, _sys = twork
     nbad = 0
     for ip in range(cmats.shape[0]):
-        k = ip % _BATCH
-        if k == 0:  # diagonalise the next batch together: their latencies overlap
-            eig_sym3(cs, _load_batch(cmats, ip, cs), ms, qs, active, turn, rcs)
-        c = (ms[k, 0, 0], ms[k, 1, 1], ms[k, 2, 2])
+        k, c = _batch_eigen(cmats, ip, cs, ms, qs, active, turn, rcs)
         ok, s_fac, t = _elastic_state(c, qs[k], cel, measure, rot, cr, c_eig, 6)
         if not ok:
             nbad += 1
@@ -203,10 +217,7 @@ def _foam_points_closed(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
     nbad = 0
     worst = 0
     for ip in range(cmats.shape[0]):
-        k = ip % _BATCH
-        if k == 0:  # diagonalise the next batch together: their latencies overlap
-            eig_sym3(cs, _load_batch(cmats, ip, cs), ms, qs, active, turn, rcs)
-        c = (ms[k, 0, 0], ms[k, 1, 1], ms[k, 2, 2])
+        k, c = _batch_eigen(cmats, ip, cs, ms, qs, active, turn, rcs)
         evpn = evp_n[ip]
         pc_n, _h = hermite_eval(evpn, xs, ys, ds)
         st, s_fac, k_fac, t, sig, mu, ep, evp = _foam_return(
@@ -301,10 +312,7 @@ def _foam_frozen_points_closed(cmats, ep_n, cel, measure, s_out, d_out, work, tw
     nbad = 0
     worst = 0
     for ip in range(cmats.shape[0]):
-        k = ip % _BATCH
-        if k == 0:  # diagonalise the next batch together: their latencies overlap
-            eig_sym3(cs, _load_batch(cmats, ip, cs), ms, qs, active, turn, rcs)
-        c = (ms[k, 0, 0], ms[k, 1, 1], ms[k, 2, 2])
+        k, c = _batch_eigen(cmats, ip, cs, ms, qs, active, turn, rcs)
         st, s, s_fac, t = _foam_frozen_update(c, qs[k], ep_n[ip], cel, measure, rot, cr, c_eig)
         if st != STATUS_OK:
             nbad += 1
