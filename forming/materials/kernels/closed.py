@@ -27,7 +27,8 @@ import math
 
 from .common import _inner
 from .curve import hermite_eval
-from .mandel import _MI, _MJ, SQRT2
+from .foam import PROP_ALPHA, PROP_PT, PROP_VISC, _yield_radius
+from .mandel import _MI, _MJ, SQRT2, _dot6
 from .strain import MEASURE_BIOT, MEASURE_BIOT_HENCKY, MEASURE_HENCKY
 
 _INV_SQRT2 = 1.0 / SQRT2
@@ -320,25 +321,17 @@ def foam_plastic_tangent(d_out, ip, c, t, sig, mu, evp, s_fac, k_fac, c_eig, rot
     Returns:
         False if the local system is singular (the tangent is left unset).
     """
-    alpha = props[0]
-    pt = props[1]
-    visc = props[2]
+    alpha = props[PROP_ALPHA]
+    pt = props[PROP_PT]
+    visc = props[PROP_VISC]
     geometric_terms(c, t, s_fac, sig, measure, True, w)
     gs = w[6]
     gk = w[7]
     pc, dpc = hermite_eval(evp, xs, ys, ds)
     tr = sig[0] + sig[1] + sig[2]
-    p = -tr / 3.0
-    p0 = 0.5 * (pc - pt)
-    q2 = 0.0
-    for i in range(6):
-        dv = sig[i] - (tr / 3.0 if i < 3 else 0.0)
-        q2 += dv * dv
-    q2 *= 1.5
-    r = math.sqrt(q2 + alpha * alpha * (p - p0) ** 2)
+    p, p0, r = _yield_radius(sig, pc, pt, alpha)
     phi_pc = -0.5 * alpha * alpha * (p - p0) / r - 0.5 * alpha
-    g = math.sqrt(1.5 * (sig[0] ** 2 + sig[1] ** 2 + sig[2] ** 2 + sig[3] ** 2 + sig[4] ** 2
-                         + sig[5] ** 2))
+    g = math.sqrt(1.5 * _dot6(sig, sig))
     v23 = visc * 2.0 / 3.0
     hard = phi_pc * dpc
     # a = dphi/dsigma along the return (hardening and viscous parts included)

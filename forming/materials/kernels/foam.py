@@ -28,6 +28,31 @@ N_PROPS = 3
 
 
 @_inner
+def _yield_radius(sig, pc, pt, alpha):
+    """Pressure, centre of the yield ellipse and its radius term for a stress.
+
+    Args:
+        sig: Rotated Cauchy stress (Mandel 6-tuple).
+        pc: Hydrostatic compression strength.
+        pt: Hydrostatic tension strength.
+        alpha: Shape factor of the yield ellipse.
+
+    Returns:
+        (p, p0, r): the pressure ``p = -tr(sigma)/3`` (positive in compression), the
+        centre ``p0 = (pc - pt)/2`` and ``r = sqrt(q^2 + alpha^2 (p - p0)^2)``.
+    """
+    tr = sig[0] + sig[1] + sig[2]
+    p = -tr / 3.0
+    q2 = 0.0
+    for i in range(6):
+        d = sig[i] - (tr / 3.0 if i < 3 else 0.0)
+        q2 += d * d
+    q2 *= 1.5
+    p0 = 0.5 * (pc - pt)
+    return p, p0, math.sqrt(q2 + alpha * alpha * (p - p0) ** 2)
+
+
+@_inner
 def _foam_yield(sig, pc, pt, alpha):
     """Crushable-foam yield value for a rotated Cauchy stress, p > 0 in compression.
 
@@ -40,15 +65,8 @@ def _foam_yield(sig, pc, pt, alpha):
     Returns:
         The yield value (positive outside the surface).
     """
-    tr = sig[0] + sig[1] + sig[2]
-    p = -tr / 3.0
-    q2 = 0.0
-    for i in range(6):
-        d = sig[i] - (tr / 3.0 if i < 3 else 0.0)
-        q2 += d * d
-    q2 *= 1.5
-    p0 = 0.5 * (pc - pt)
-    return math.sqrt(q2 + alpha * alpha * (p - p0) ** 2) - 0.5 * alpha * (pc + pt)
+    _p, _p0, r = _yield_radius(sig, pc, pt, alpha)
+    return r - 0.5 * alpha * (pc + pt)
 
 
 @_inner
