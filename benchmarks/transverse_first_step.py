@@ -15,7 +15,7 @@ for or against each suspected cause, printed as tables:
 
 The stroke with the holder at a 10 times lower penalty:
 ``python cases/hemisphere.py --set elasticity=transverse --set cells=12,12,3
---set blank_holder=true --set tool_stick=augmented --set line_search=bt
+--set blank_holder=true --set tool_stick=augmented --set newton.line_search=bt
 --set tool_penalty=1``.
 
 Run: ``python benchmarks/transverse_first_step.py`` (about a minute).
@@ -28,7 +28,7 @@ import logging
 import numpy as np
 import ufl
 
-from forming.case import load_case, parse_params
+from forming.case import load_case, prepare_case
 from forming.materials import library
 from forming.materials.stability import acoustic_min
 from forming.model import Model
@@ -45,7 +45,7 @@ def _job(sets: tuple[str, ...], core: dict | None = None):
         CASE.honeycomb_core = lambda kind, curve=None, viscosity=0.0: library.honeycomb_core(
             kind, plastic=False, curve=curve, **core)
     try:
-        job = CASE.build(parse_params(CASE.Params, [*BASE, *sets]))
+        job, _ = prepare_case("hemisphere", [*BASE, *sets], CASE.build, CASE.Params)
     finally:
         CASE.honeycomb_core = build_core
     return job
@@ -157,11 +157,11 @@ def main() -> None:
           "| bulk Taylor slopes |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     aug, slip = "tool_stick=augmented", "tool_stick=elastic_slip"
-    variants = [("transverse", "augmented, bt (before)", (aug, "line_search=bt")),
-                ("transverse", "augmented, basic", (aug, "line_search=basic")),
-                ("transverse", "elastic slip, bt", (slip, "line_search=bt")),
-                ("transverse", "frictionless, bt", ("friction=0", "line_search=bt")),
-                ("transverse", "frictionless, basic", ("friction=0", "line_search=basic")),
+    variants = [("transverse", "augmented, bt (before)", (aug, "newton.line_search=bt")),
+                ("transverse", "augmented, basic", (aug, "newton.line_search=basic")),
+                ("transverse", "elastic slip, bt", (slip, "newton.line_search=bt")),
+                ("transverse", "frictionless, bt", ("friction=0", "newton.line_search=bt")),
+                ("transverse", "frictionless, basic", ("friction=0", "newton.line_search=basic")),
                 ("transverse", "elastic slip, basic (auto)", ()),
                 ("isotropic", "augmented, bt (auto)", ())]
     for core, name, sets in variants:
@@ -172,7 +172,7 @@ def main() -> None:
               f"{sw.get('punch', 0)} | {r['die_active_final']} of {r['die_nodes']}, "
               f"{r['punch_active_final']} | {r['sym_eig_min']:.3g} | {r['cond']:.2e} | "
               f"{r['acoustic_min_MPa']:.4f} | {np.array2string(r['taylor'], precision=2)} |")
-    old = ("elasticity=transverse", "tool_stick=augmented", "line_search=bt")
+    old = ("elasticity=transverse", "tool_stick=augmented", "newton.line_search=bt")
     print("\n## 2. Before (augmented, bt): residual where Newton stops against the step\n")
     print("| step [mm] | converged | residual [N] | residual / step [N/mm] |")
     print("|---|---|---|---|")
@@ -187,7 +187,7 @@ def main() -> None:
         r = first_step(old + ((f"tool_penalty={pen}",) if pen else ()), spectrum=False)
         label = f"{r['penalty']:.3g}" + (" (default, 10 x 15 MPa / h)" if pen is None else "")
         print(f"| transverse | {label} | {r['converged']} | {r['iterations']} |")
-    r = first_step(("elasticity=isotropic", "tool_stick=augmented", "line_search=bt"),
+    r = first_step(("elasticity=isotropic", "tool_stick=augmented", "newton.line_search=bt"),
                    core={"E": 0.2}, spectrum=False)
     print(f"| isotropic, E = 0.2 MPa (elastic) | {r['penalty']:.3g} (default) | "
           f"{r['converged']} | {r['iterations']} |")

@@ -25,7 +25,7 @@ from pathlib import Path
 from _report import REPO, run_case_process, update_section
 from validate_hemisphere import _row
 
-SAME = ("tool_stick=elastic_slip", "line_search=basic")
+SAME = ("tool_stick=elastic_slip", "newton.line_search=basic")
 
 
 class Runs:

@@ -11,7 +11,8 @@ radii (10 mm) are estimates. The core is isotropic by default (the paper's Abaqu
 (``viscosity``, 0.15 MPa mm) lets Newton follow the softening curve, within about 2% of the
 rate-independent force (docs/validation.md).
 
-Contact numerics (``tool_stick``, ``line_search``; ``auto`` chooses): a transversely
+Contact numerics (``tool_stick``, ``auto`` chooses; the line search follows, and
+``newton.line_search`` overrides it): a transversely
 isotropic core hinges over the die edge on nodes at almost zero pressure, as the skins do
 on the tools; both then use Coulomb friction with elastic slip (stick stiffness
 proportional to the pressure) and full Newton steps. With the augmented stick constraint
@@ -74,7 +75,6 @@ class Params:
     skin_stabilisation: float = 1e-3  # interface stabilisation, fraction of its penalty
     skin_smoothing: float = 0.0  # smoothed interface pressure ramp (fraction)
     tool_stick: Literal["auto", "augmented", "elastic_slip"] = "auto"  # tool stick law
-    line_search: Literal["auto", "basic", "bt"] = "auto"  # Newton line search
     tool_penalty: float | None = None  # tool contact penalty [N/mm^3]; none: 10 C_max / h
 
 
@@ -91,12 +91,14 @@ def hinges_at_zero_pressure(p: Params) -> bool:
 
 
 def contact_numerics(p: Params) -> tuple[str, str]:
-    """The tool stick law and the Newton line search of the run (resolving ``auto``)."""
+    """The tool stick law (resolving ``auto``) and the Newton line search of the run.
+
+    ``--set newton.line_search=...`` (every case's Newton setting) overrides the latter.
+    """
     soft = hinges_at_zero_pressure(p)
     stick = p.tool_stick if p.tool_stick != "auto" else (
         "elastic_slip" if soft else "augmented")
-    search = p.line_search if p.line_search != "auto" else ("basic" if soft else "bt")
-    return stick, search
+    return stick, "basic" if soft else "bt"
 
 
 def build(p: Params) -> Job:

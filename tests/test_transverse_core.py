@@ -69,7 +69,7 @@ def test_transverse_hemisphere_with_holder_first_millimetres(tmp_path):
     no node beyond the penetration tolerance.
 
     A failure means the transverse core's zero-pressure flange nodes stall Newton again
-    (check ``tool_stick`` and ``line_search`` resolve to elastic slip and basic).
+    (check ``tool_stick`` resolves to elastic slip and the line search to basic).
     """
     s = run_case("hemisphere", tmp_path, ["elasticity=transverse", "blank_holder=true",
                                           "cells=8,8,2", "stroke=5"])
