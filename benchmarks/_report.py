@@ -16,11 +16,13 @@ PERFORMANCE_MD = REPO / "docs" / "performance.md"
 
 
 def run_case_process(case: str, out: Path, ranks: int = 1, sets: tuple[str, ...] = (),
-                     env: dict[str, str] | None = None, allow_failure: bool = False) -> dict:
+                     env: dict[str, str] | None = None, allow_failure: bool = False,
+                     repo: Path = REPO) -> dict:
     """Run ``cases/<case>.py`` in a fresh process; returns the summary plus ``process_s``.
 
     With ``allow_failure`` a run that stopped early (exit 1, summary written with
-    ``status`` failed) is returned too; any other error raises.
+    ``status`` failed) is returned too; any other error raises. ``repo``: the source
+    tree to run (another checkout, for before-and-after figures).
     """
     cmd = [sys.executable, f"cases/{case}.py", "--out", str(out)]
     for s in sets:
@@ -29,7 +31,9 @@ def run_case_process(case: str, out: Path, ranks: int = 1, sets: tuple[str, ...]
         cmd = [str(Path(sys.executable).parent / "mpirun"), "-n", str(ranks)] + cmd
     full_env = dict(os.environ, OMP_NUM_THREADS="1", **(env or {}))
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=REPO, env=full_env, capture_output=True, text=True)
+    if repo != REPO:
+        full_env["PYTHONPATH"] = str(repo)
+    proc = subprocess.run(cmd, cwd=repo, env=full_env, capture_output=True, text=True)
     elapsed = time.perf_counter() - t0
     if proc.returncode != 0 and not (allow_failure and proc.returncode == 1
                                       and (out / "summary.json").is_file()):

@@ -10,7 +10,7 @@ pair no tangential term. See ``docs/theory.md`` and ``docs/architecture.md``.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 
 import numpy as np
 import ufl
@@ -265,13 +265,17 @@ class Model:
         for c in self.constraints:
             c.set_load(t)
 
-    def commit(self) -> None:
-        """Accept the converged state as history."""
+    def commit(self, exclude: Collection[int] = ()) -> None:
+        """Accept the converged state as history.
+
+        Args:
+            exclude: ``id`` of the bodies and constraints whose history the caller keeps
+                itself (the explicit solver's element loops and nodal contacts).
+        """
         self._t_committed = self._t
-        for b in self.bodies.values():
-            b.commit()
-        for c in self.constraints:
-            c.commit()
+        for obj in (*self.bodies.values(), *self.constraints):
+            if id(obj) not in exclude:
+                obj.commit()
 
     def snapshot(self) -> dict:
         """Copy of the converged state (load, displacements, history, multipliers)."""

@@ -97,6 +97,12 @@ class DeformableBody(Protocol):
     def warnings(self) -> list[str]:
         """What a user should know about the run's use of this body (collective)."""
 
+    def explicit_internal_force(self, integration: str, hourglass: float, density: float):
+        """Element loops for the explicit solver, or None to use the form.
+
+        The loops are a :class:`~forming.bodies.hexforce.HexInternalForce`.
+        """
+
 
 class BodyBase:
     """The members every body shares: spaces, cells, kinematics, displacement state.
@@ -156,6 +162,10 @@ class BodyBase:
     def warnings(self) -> list[str]:
         """None by default."""
         return []
+
+    def explicit_internal_force(self, integration: str, hourglass: float, density: float):
+        """None: the explicit solver assembles this body's internal forces from its form."""
+        del integration, hourglass, density
 
     def nodal_coordinates(self) -> np.ndarray:
         """Reference coordinates of the owned displacement nodes, (n, 3)."""

@@ -18,6 +18,7 @@ from mpi4py import MPI
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
 from forming.bodies.base import BodyBase
+from forming.bodies.hexforce import HexInternalForce
 from forming.domain import BodyDomain
 from forming.errors import InputError, KernelFailure
 from forming.kinematics import mandel_contract, mandel_to_tensor, tensor_to_mandel
@@ -207,6 +208,13 @@ class SolidBody(BodyBase):
             plastic = (self.domain.point_layout(per_cell, 6),
                        self.domain.point_layout(per_cell, None))
         return (self.domain.layout(self.V), plastic, self.domain.layout(self.QS))
+
+    def explicit_internal_force(self, integration: str, hourglass: float,
+                                density: float) -> HexInternalForce | None:
+        """Element loops for the explicit solver on P1 hexahedra; None: use the forms."""
+        if self.mesh.topology.cell_name() != "hexahedron" or self.spec.degree != 1:
+            return None
+        return HexInternalForce(self, integration, hourglass, density)
 
     def contact_stiffness(self) -> float:
         """Largest diagonal elastic modulus [MPa] (sets default contact penalties)."""

@@ -16,9 +16,11 @@ from dolfinx import fem, mesh  # noqa: I001
 from mpi4py import MPI
 
 from forming.contact.laws import coulomb_return, normal_pressure, tangent_projector
+from forming.contact.nodal import NodalContact
 from forming.contact.shapes import UFL
 from forming.history import MAX_PENETRATION, ForceSampler, force_column
 from forming.scene import Contact, Tool
+from forming.vectors import assembled
 
 
 def surface_edge_min(msh, facets: np.ndarray) -> float:
@@ -214,6 +216,51 @@ class ContactTerm:
             return (dom.layout(self.lam_n.function_space), None, None, None)
         return (dom.layout(self.lam_n.function_space), dom.layout(self.lam_t.function_space),
                 dom.layout(self.u_prev.function_space), None)
+
+    # -- node by node (explicit increments) ---------------------------------------------
+    def nodal(self) -> NodalContact:
+        """The same contact evaluated node by node (:mod:`forming.contact.nodal`).
+
+        Its friction history starts from this term's (:meth:`pull_nodal`).
+        """
+        V = self.body.V
+        nodes = fem.locate_dofs_topological(V, 2, self.body.domain.facets(self.spec.region))
+        nodes = nodes[nodes < V.dofmap.index_map.size_local].astype(np.int64)
+        w = ufl.TestFunction(V)
+        area = fem.Function(V)
+        assembled(self.body.domain.form(ufl.dot(ufl.as_vector([1.0, 1.0, 1.0]), w) * self._ds),
+                  area)
+        nc = NodalContact(self.tool.shape, nodes, V.tabulate_dof_coordinates()[nodes],
+                          area.x.array[3 * nodes], self.penalty, self.friction,
+                          self.elastic_slip)
+        self.pull_nodal(nc)
+        return nc
+
+    def _shear_nodes(self, nc: NodalContact) -> np.ndarray:
+        """Blocks of the shear function at the nodal contact's nodes."""
+        V, Wv = self.body.V, self.lam_t.function_space
+        blocks = np.empty(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts,
+                          dtype=np.int64)
+        blocks[V.dofmap.list] = Wv.dofmap.list
+        return blocks[nc.nodes]
+
+    def pull_nodal(self, nc: NodalContact) -> None:
+        """Give a nodal contact this term's friction history (start, restored snapshot)."""
+        if self.lam_t is None:
+            return
+        nc.lam_t[:] = self.lam_t.x.array.reshape(-1, 3)[self._shear_nodes(nc)]
+        nc.u_prev[:] = self.u_prev.x.array.reshape(-1, 3)[nc.nodes]
+        nc.offset_prev[:] = self._offset_prev.value
+
+    def push_nodal(self, nc: NodalContact) -> None:
+        """Take a nodal contact's friction history (outputs and snapshots see it)."""
+        if self.lam_t is None:
+            return
+        self.lam_t.x.array.reshape(-1, 3)[self._shear_nodes(nc)] = nc.lam_t
+        self.lam_t.x.scatter_forward()
+        self.u_prev.x.array.reshape(-1, 3)[nc.nodes] = nc.u_prev
+        self.u_prev.x.scatter_forward()
+        self._offset_prev.value[:] = nc.offset_prev
 
     # -- outputs -----------------------------------------------------------------------
     def force(self) -> np.ndarray:

@@ -112,16 +112,48 @@ def evaluate(
                                                  mode, h)
         return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad),
                            int(worst))
-    props = k.props
-    eta = getattr(material, "viscosity", 0.0) / travel  # per unit load parameter
-    if eta > 0.0 and load_increment > 0.0:
-        props = props.copy()
-        props[PROP_VISC] = eta / load_increment
+    props = _props(material, k, load_increment, travel)
     nbad, worst = kernels.foam_points(
         cm, ep_in, evp_in, k.cel, k.measure, props, k.xs, k.ys, k.ds, s, d, ep_out, evp_out,
         mode, h,
     )
     return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad), int(worst))
+
+
+def point_stress(material: PointMaterial, cmats: np.ndarray, ep_n: np.ndarray,
+                 evp_n: np.ndarray, s_out: np.ndarray, ep_out: np.ndarray,
+                 evp_out: np.ndarray, load_increment: float = 0.0,
+                 travel: float = 1.0) -> tuple[int, int]:
+    """The stress alone, into preallocated arrays (the explicit solver's increments).
+
+    The same stress update as :func:`evaluate` without a tangent, bit for bit; for an
+    elastic material the plastic arrays are ignored (they may be empty).
+
+    Returns:
+        (number of points with a non-zero status, worst status).
+    """
+    k = material.kernel_data()
+    none = _NO_TANGENT
+    if not k.plastic:
+        return kernels.elastic_points(cmats, k.cel, k.measure, s_out, none, kernels.TANGENT_NONE,
+                                      0.0)
+    return kernels.foam_points(cmats, ep_n, evp_n, k.cel, k.measure,
+                               _props(material, k, load_increment, travel), k.xs, k.ys, k.ds,
+                               s_out, none, ep_out, evp_out, kernels.TANGENT_NONE, 0.0)
+
+
+_NO_TANGENT = np.zeros((0, 36))
+
+
+def _props(material: PointMaterial, k: KernelData, load_increment: float,
+           travel: float) -> np.ndarray:
+    """The kernel's parameters, with the viscosity per unit load parameter of the step."""
+    eta = getattr(material, "viscosity", 0.0) / travel  # per unit load parameter
+    if eta > 0.0 and load_increment > 0.0:
+        props = k.props.copy()
+        props[PROP_VISC] = eta / load_increment
+        return props
+    return k.props
 
 
 def _measure(name: str) -> int:

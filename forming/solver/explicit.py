@@ -8,6 +8,14 @@ increment. One call of :meth:`ExplicitSolver.solve` integrates one output interv
 the load programme, so the step lifecycle of :func:`forming.run.simulate` (advance,
 predict, solve, accept or roll back, output) is shared with the implicit solver.
 
+Within an increment nothing is assembled through forms where compiled loops exist: a
+solid on hexahedra computes its internal forces element by element
+(:class:`~forming.bodies.hexforce.HexInternalForce`, full or reduced integration), and
+a tool contact node by node (:class:`~forming.contact.nodal.NodalContact`); fabric
+skins, interfaces and distributed loads are assembled from their forms. The works of an
+increment are summed on each rank and over ranks once per output interval
+(:class:`~forming.solver.ledger.EnergyLedger`).
+
 Time and load parameter: the load programme runs over ``loading_time`` seconds with the
 load parameter ``s(tau)`` following a smooth step (zero velocity and acceleration at
 both ends), or a linear ramp. See docs/theory.md, section 12 ("Explicit dynamics").
@@ -23,20 +31,22 @@ from dataclasses import asdict
 import numpy as np
 import ufl
 from dolfinx import fem  # noqa: I001
-from dolfinx.fem.petsc import assemble_matrix
 from mpi4py import MPI
 
 from forming import compat, signals  # noqa: F401
-from forming.errors import InputError, KernelFailure
+from forming.errors import KernelFailure
 from forming.model import Model
 from forming.solver.base import StepResult
-from forming.solver.lumped import BodyState, ExternalTerm, assembled
+from forming.solver.ledger import EnergyLedger
+from forming.solver.lumped import BodyState, ExternalTerm, ToolTerm, body_density
 from forming.solver.options import ExplicitOptions
 from forming.solver.stepping import StepControl
+from forming.solver.timestep import StableStep
+from forming.vectors import assembled
 
 log = logging.getLogger(__name__)
 
-_CHECK_EVERY = 64  # increments between collective checks for a stop request
+_CHECK_EVERY = 16  # increments between collective checks (stop request, time step)
 MASS_ADDED_LIMIT = 0.05  # added mass above which a run is flagged (fraction of the mass)
 
 
@@ -55,7 +65,7 @@ class ExplicitSolver:
 
     def __init__(self, model: Model, options: ExplicitOptions | None = None):
         self.model = model
-        self.options = options or ExplicitOptions()
+        self.options = opts = options or ExplicitOptions()
         comm = model.comm
         self.comm = comm
         bcs = {n: [bc for bc, b in zip(model.dirichlet.bcs, model.dirichlet.bc_bodies,
@@ -64,11 +74,13 @@ class ExplicitSolver:
         by_name = {st.name: st for st in self.states}
         tests = model.test_functions()
         emaps = model.entity_maps or None
-        self._internal = [fem.form(b.residual(tests[n]), entity_maps=emaps)
-                          for n, b in model.bodies.items()]
-        # contact and interface tractions on their own: tool work and friction energy
-        self._tools = [ExternalTerm(by_name[name], fem.form(r, entity_maps=emaps), c)
-                       for c in model.contacts for name, r in c.residuals(tests).items()]
+        # internal forces: element loops where the body has them, else its form
+        self._loops = {st.name: st.body.explicit_internal_force(
+            opts.integration, opts.hourglass, body_density(st.body)) for st in self.states}
+        self._internal = {n: fem.form(b.residual(tests[n]), entity_maps=emaps)
+                          for n, b in model.bodies.items() if self._loops[n] is None}
+        # tool contacts node by node: tool work and friction energy
+        self._tools = [ToolTerm(by_name[c.spec.body], c) for c in model.contacts]
         self._sides = [ExternalTerm(by_name[name], fem.form(r, entity_maps=emaps))
                        for itf in model.interfaces
                        for name, r in itf.residuals(tests).items()]
@@ -76,120 +88,81 @@ class ExplicitSolver:
         self._loads = [ExternalTerm(by_name[tr.body], fem.form(
             -ufl.dot(const, tests[tr.body]) * ds, entity_maps=emaps))
             for tr, const, ds in model.tractions]
-        # every external term once; the full residual is their sum with the internal forces
-        self._terms = [*self._tools, *self._sides, *self._loads]
+        self._terms = [*self._sides, *self._loads]  # assembled from forms
+        # what the solver commits itself at every increment (not through the model)
+        self._own = {id(st.body) for st in self.states if self._loops[st.name] is not None}
+        self._own |= {id(t.contact) for t in self._tools}
         # recorded reactions: the residual at a face's prescribed dofs, f_all . w
         self._reactions = [(key, by_name[name], w.x.array[: by_name[name].n_owned])
                            for key, (name, w) in model.dirichlet.reaction_weights.items()]
-        self._stiffness = self._stiffness_forms(tests)
-        self.mass_added_fraction = self._scale_masses()
+        self._bound = StableStep(model, self.states, opts)
+        self.mass_added_fraction = self._bound.scale_masses()
         self.tau = 0.0
-        self.dt = self._stable_dt()
         self.time_steps = 0
         self.assembly_seconds = 0.0
-        self.energy = {"kinetic": 0.0, "internal": 0.0, "friction": 0.0, "damping": 0.0,
-                       "external": 0.0}
-        self._ke_ie_max = 0.0
-        self._balance_max = 0.0
+        self.integration_seconds = 0.0  # wall time in solve(), rank 0's
+        self.ledger = EnergyLedger()
         self._s_end = 0.0
         self._impulse: dict[str, np.ndarray] = {}
         self._reaction_impulse: dict[str, float] = {}
         self._tau_start = 0.0
+        self._old = [(np.zeros(st.body.u.x.array.size), np.zeros(st.n_owned),
+                      np.zeros(st.n_owned), np.zeros(st.v.size)) for st in self.states]
         self._assemble_forces()  # forces at rest (e.g. a preload) give a_0
+        self.dt = self._dt_ref = self._bound.time_step()
+        self._omega2_ref = self._omega2_now = self._omega2()
         for st in self.states:
             self._accelerate(st)
-        log.info("explicit: stable time step %.3g s, about %d increments, mass added %.3g%%",
-                 self.dt, int(self.options.loading_time / self.dt) + 1,
-                 100 * self.mass_added_fraction)
+        log.info("explicit: stable time step %.3g s, about %d increments, mass added %.3g%%, "
+                 "%s integration of hexahedral solids", self.dt,
+                 int(opts.loading_time / self.dt) + 1, 100 * self.mass_added_fraction,
+                 opts.integration)
 
-    # -- time step and mass scaling -------------------------------------------------------
-    def _stiffness_forms(self, tests: dict) -> list:
-        """Per body: its tangent block and a vector of every penalty its nodes may meet."""
-        model = self.model
-        jac = model.jacobians()
-        estimates = [c.stiffness_estimate(tests) for c in model.constraints]
-        out = []
-        for i, st in enumerate(self.states):
-            # open contacts included; an interface counts twice (the coupling row)
-            terms = [e[st.name] for e in estimates if st.name in e]
-            pen = sum(terms[1:], terms[0]) if terms else None
-            # coupled blocks reach into the other bodies: every body's entity map
-            maps = model.entity_maps or None
-            out.append((fem.form(jac[i][i], entity_maps=maps),
-                        None if pen is None else fem.form(pen, entity_maps=maps)))
-        return out
+    # -- time step ------------------------------------------------------------------------
+    def _local_omega2(self) -> float:
+        """The largest element frequency bound of this rank's element loops [1/s^2]."""
+        return max((loop.omega2 for loop in self._loops.values() if loop is not None),
+                   default=0.0)
 
-    def _row_sums(self) -> list[np.ndarray]:
-        """Per body, the absolute row sums of its tangent plus every contact penalty.
+    def _omega2(self) -> float:
+        """The largest element frequency bound over all ranks (collective)."""
+        return self.comm.allreduce(self._local_omega2(), op=MPI.MAX)
 
-        Gershgorin: the largest eigenvalue of M^-1 K is at most max_i sum_j |K_ij| / m_i,
-        so ``2 / sqrt(row_i / m_i)`` bounds the stable time step of node i from below.
+    def _follow_stiffening(self, omega2: float) -> None:
+        """Shorten the time step as the stiffest element stiffens (crushing, compression).
+
+        Between the Gershgorin bounds at the output intervals, the element loops track
+        the Flanagan-Belytschko frequency bound of every element in its current shape;
+        the step shrinks with the square root of its growth since the last bound.
         """
-        sums = []
-        for st, (jac, pen) in zip(self.states, self._stiffness, strict=True):
-            st.body.invalidate()
-            # elastic unloading is the stiffest response: plastic state frozen
-            st.body.update_material(want_tangent=True, frozen=True)
-            A = assemble_matrix(jac)
-            A.assemble()
-            indptr, _cols, data = A.getValuesCSR()
-            rows = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
-            local = np.bincount(rows, weights=np.abs(data), minlength=len(indptr) - 1)
-            A.destroy()
-            f = fem.Function(st.body.V)
-            f.x.array[: st.n_owned] = local
-            f.x.scatter_forward()
-            total = f.x.array.copy()
-            if pen is not None:
-                total += assembled(pen)
-            # one value per node: the stiffest of its three components
-            sums.append(np.repeat(total.reshape(-1, 3).max(axis=1), 3))
-            st.body.invalidate()
-        return sums
-
-    def _scale_masses(self) -> float:
-        """Add mass where the stable time step is below the target; the added fraction."""
-        target = self.options.target_time_step
-        if target is None:
-            return 0.0
-        added = total = 0.0
-        factor = (target / (2.0 * self.options.safety)) ** 2
-        for st, k in zip(self.states, self._row_sums(), strict=True):
-            st.m = np.maximum(st.m_phys, k * factor)
-            added += float(np.sum(st.m[: st.n_owned] - st.m_phys[: st.n_owned]))
-            total += float(np.sum(st.m_phys[: st.n_owned]))
-        added, total = (self.comm.allreduce(v, op=MPI.SUM) for v in (added, total))
-        return added / total
-
-    def _stable_dt(self) -> float:
-        """Safety times the Gershgorin bound of the critical time step [s]."""
-        omega2 = 0.0
-        for st, k in zip(self.states, self._row_sums(), strict=True):
-            n = st.n_owned
-            free = ~st.fixed[:n]
-            if np.any(free):
-                omega2 = max(omega2, float(np.max(k[:n][free] / st.m[:n][free])))
-        omega2 = self.comm.allreduce(omega2, op=MPI.MAX)
-        if omega2 <= 0:
-            raise InputError("explicit", "the model has no stiffness: no stable time step")
-        return self.options.safety * 2.0 / math.sqrt(omega2)
+        if omega2 > self._omega2_ref > 0:
+            self.dt = min(self.dt, self._dt_ref * math.sqrt(self._omega2_ref / omega2))
 
     # -- one increment ----------------------------------------------------------------------
     def _assemble_forces(self) -> None:
         t0 = time.perf_counter()
         for st in self.states:
-            st.body.update_material(want_tangent=False)
-        for st, internal in zip(self.states, self._internal, strict=True):
-            assembled(internal, st.f_int)
+            loop = self._loops[st.name]
+            if loop is not None:
+                loop.forces(st.f_int.x)
+            else:
+                st.body.update_material(want_tangent=False)
+                assembled(self._internal[st.name], st.f_int)
             st.f_all.x.array[:] = st.f_int.x.array
         for term in self._terms:
             term.update()
             term.state.f_all.x.array[:] += term.vec.x.array
+        if self._tools:
+            for tool in self._tools:
+                tool.update()
+            for st in self.states:  # tool residuals went into owned entries
+                st.f_all.x.scatter_forward()
         self.assembly_seconds += time.perf_counter() - t0
 
     def _accelerate(self, st: BodyState) -> None:
         """Acceleration a = -R / m - alpha v, zero where the motion is prescribed."""
-        st.a[:] = -st.f_all.x.array / st.m
+        np.divide(st.f_all.x.array, st.m, out=st.a)
+        np.negative(st.a, out=st.a)
         if self.options.damping > 0:
             st.a -= self.options.damping * st.v
         st.a[st.fixed] = 0.0
@@ -197,77 +170,87 @@ class ExplicitSolver:
     def _increment(self, dt: float) -> None:
         """Advance by ``dt``: velocity, displacement, load, forces, acceleration, history."""
         model = self.model
-        old = []
-        for st in self.states:
+        for st, (u0, f0, r0, v0) in zip(self.states, self._old, strict=True):
             n = st.n_owned
-            old.append((st.body.u.x.array.copy(), st.f_int.x.array[:n].copy(),
-                        st.f_all.x.array[:n].copy(), st.v.copy()))
+            u = st.body.u.x.array
+            u0[:] = u
+            f0[:] = st.f_int.x.array[:n]
+            r0[:] = st.f_all.x.array[:n]
+            v0[:] = st.v
             # leapfrog: v(n+1/2) = v(n-1/2) + dt a(n); the first half step from rest
             st.v += (dt if self.time_steps else 0.5 * dt) * st.a
-            st.body.u.x.array[:] += dt * st.v
+            u += dt * st.v
         tool_old = [t.contact.tool_offset() for t in self._tools]
         self.tau += dt
         model.set_load(self.options.load(self.tau))
-        for st, (u0, *_rest) in zip(self.states, old, strict=True):
+        for st, (u0, *_rest) in zip(self.states, self._old, strict=True):
             for bc in st.bcs:
                 bc.set(st.body.u.x.array)
-            st.v[st.fixed] = (st.body.u.x.array[st.fixed] - u0[st.fixed]) / dt
+            fixed = st.fixed
+            st.v[fixed] = (st.body.u.x.array[fixed] - u0[fixed]) / dt
         self._assemble_forces()
-        # works over the increment (trapezoidal rule)
-        w_int = w_ext = 0.0
+        self._account(dt, tool_old)
+        for st in self.states:
+            self._accelerate(st)
+        for tool in self._tools:
+            tool.commit()
+        for loop in self._loops.values():
+            if loop is not None:
+                loop.commit()
+        model.commit(exclude=self._own)
+        self.time_steps += 1
+
+    def _account(self, dt: float, tool_old: list[np.ndarray]) -> None:
+        """This rank's works over the increment (trapezoidal rule), tool impulses."""
+        w_int = w_ext = w_damp = on_bodies = tools = 0.0
         du = {}
-        for st, (u0, f0, r0, v0) in zip(self.states, old, strict=True):
+        for st, (u0, f0, r0, v0) in zip(self.states, self._old, strict=True):
             n = st.n_owned
-            du[st.name] = st.body.u.x.array[:n] - u0[:n]
-            w_int += 0.5 * float((f0 + st.f_int.x.array[:n]) @ du[st.name])
+            d = du[st.name] = st.body.u.x.array[:n] - u0[:n]
+            w_int += 0.5 * float((f0 + st.f_int.x.array[:n]) @ d)
             # all external forces on the free dofs do R = f_int - f_ext; at prescribed
             # dofs the support does the work that changes their kinetic energy
             free = ~st.fixed[:n]
-            r = 0.5 * (r0 + st.f_all.x.array[:n])
-            w_ext += -float(r[free] @ du[st.name][free])
+            r = r0 + st.f_all.x.array[:n]
+            w_ext -= 0.5 * float(r[free] @ d[free])
             fixed = st.fixed[:n]
             w_ext += 0.5 * float(st.m[:n][fixed] @ (st.v[:n][fixed] ** 2 - v0[:n][fixed] ** 2))
-        w_ext += w_int
-        w_damp = 0.0
-        if self.options.damping > 0:  # the damping force alpha m v did work on the nodes
-            for st, (_u0, _f0, _r0, v0) in zip(self.states, old, strict=True):
-                n = st.n_owned
-                free = ~st.fixed[:n]
-                w_damp += self.options.damping * float(
-                    (st.m[:n] * v0[:n])[free] @ du[st.name][free])
-            w_damp = self.comm.allreduce(w_damp, op=MPI.SUM)
-        on_bodies = tools = 0.0
-        for term in (*self._tools, *self._sides):
-            on_bodies += -0.5 * float((term.r_old + term.r_new) @ du[term.state.name])
-        for term, off0 in zip(self._tools, tool_old, strict=True):
-            # force on the tool, mean of both ends of the increment
-            force = 0.5 * self.comm.allreduce(
-                (term.r_old + term.r_new).reshape(-1, 3).sum(axis=0), op=MPI.SUM)
-            tools += -float(force @ (term.contact.tool_offset() - off0))
-            self._impulse[term.contact.name] += force * dt
+            if self.options.damping > 0:  # the damping force alpha m v did work on the nodes
+                w_damp += self.options.damping * float((st.m[:n] * v0[:n])[free] @ d[free])
+        for term in self._sides:
+            on_bodies -= 0.5 * float((term.r_old + term.r_new) @ du[term.state.name])
+        for tool, off0 in zip(self._tools, tool_old, strict=True):
+            on_bodies += tool.work_on_body(du[tool.state.name])
+            force = tool.nodal.force_on_tool()  # this rank's share
+            tools -= float(force @ (tool.contact.tool_offset() - off0))
+            self._impulse[tool.contact.name] += force * dt
         for key, st, w in self._reactions:
             self._reaction_impulse[key] += dt * float(st.f_all.x.array[: st.n_owned] @ w)
-        w_int, w_ext, on_bodies = (self.comm.allreduce(v, op=MPI.SUM)
-                                   for v in (w_int, w_ext, on_bodies))
         # what the tools put in, less what reached the nodes, went into friction (and
         # the penalty springs of contacts and interfaces)
-        self.energy["internal"] += w_int
-        self.energy["damping"] += w_damp
-        self.energy["external"] += w_ext + w_damp - on_bodies + tools
-        self.energy["friction"] += tools - on_bodies
-        for st in self.states:
-            self._accelerate(st)
-        model.commit()
-        self.time_steps += 1
+        self.ledger.add(internal=w_int, external=w_ext + w_int + w_damp - on_bodies + tools,
+                        friction=tools - on_bodies, damping=w_damp)
 
     def _kinetic(self) -> float:
-        """Kinetic energy at the current time: v(n) = v(n-1/2) + dt/2 a(n)."""
+        """Kinetic energy of this rank's nodes: v(n) = v(n-1/2) + dt/2 a(n)."""
         ke = 0.0
         for st in self.states:
             n = st.n_owned
             v = st.v[:n] + 0.5 * self.dt * st.a[:n]
             ke += 0.5 * float(st.m[:n] @ v**2)
-        return self.comm.allreduce(ke, op=MPI.SUM)
+        return ke
+
+    def _hourglass(self) -> float:
+        """Hourglass energy of this rank's elements [N mm]."""
+        return sum(loop.hourglass_energy for loop in self._loops.values() if loop is not None)
+
+    def _push(self) -> None:
+        """Hand the element loops' and nodal contacts' history to the model's objects."""
+        for loop in self._loops.values():
+            if loop is not None:
+                loop.push()
+        for tool in self._tools:
+            tool.contact.push_nodal(tool.nodal)
 
     # -- step lifecycle ---------------------------------------------------------------------
     def step_control(self, requested: StepControl) -> StepControl:
@@ -297,7 +280,9 @@ class ExplicitSolver:
         ok = True
         try:
             if self.time_steps:  # the constructor evaluated the bound at the start
-                self.dt = self._stable_dt()
+                self._push()  # the Gershgorin bound reads the body's plastic state
+                self.dt = self._dt_ref = self._bound.time_step()
+                self._omega2_ref = self._omega2_now
             while self.tau < tau_end * (1 - 1e-12):
                 n_left = math.ceil((tau_end - self.tau) / self.dt - 1e-9)
                 dt = (tau_end - self.tau) / max(n_left, 1)
@@ -306,8 +291,10 @@ class ExplicitSolver:
                     continue
                 # collective, so that every rank stops at the same increment
                 finite = all(np.all(np.isfinite(st.v)) for st in self.states)
-                code = self.comm.allreduce(2 * int(not finite)
-                                           + int(signals.requested() is not None), op=MPI.MAX)
+                local = np.array([2.0 * (not finite) + (signals.requested() is not None),
+                                  self._local_omega2()])
+                code, omega2 = self.comm.allreduce(local, op=MPI.MAX)
+                self._follow_stiffening(omega2)
                 if code:
                     ok = False
                     reason = ("velocities not finite (unstable time step)" if code >= 2
@@ -319,15 +306,17 @@ class ExplicitSolver:
             ok, reason = False, f"point kernel failed: {exc}"
         ok = self.comm.allreduce(ok, op=MPI.LAND)
         if ok:
-            ke = self._kinetic()
-            self.energy["kinetic"] = ke
-            ie = self.energy["internal"]
-            if self._s_end >= 0.05 and ie > 0:
-                self._ke_ie_max = max(self._ke_ie_max, ke / ie)
-            self._balance_max = max(self._balance_max, abs(self.balance()))
+            self._push()
+            self._omega2_now = self._omega2()  # the stiffest element at the interval's end
+            self.ledger.close_interval(self.comm, self._kinetic(), self._hourglass(),
+                                       self._s_end)
+            self._impulse = {k: self.comm.allreduce(v, op=MPI.SUM)
+                             for k, v in self._impulse.items()}
         elif not reason:
             reason = "failed on another rank"
-        return StepResult(ok, self.time_steps - n0, [], reason, time.perf_counter() - t0)
+        seconds = time.perf_counter() - t0
+        self.integration_seconds += seconds
+        return StepResult(ok, self.time_steps - n0, [], reason, seconds)
 
     def accept(self, force_scale: float) -> None:
         """Nothing to carry over: the state lives in the solver's vectors."""
@@ -338,19 +327,28 @@ class ExplicitSolver:
         return ([(st.v.copy(), st.a.copy(), st.f_int.x.array.copy(),
                   st.f_all.x.array.copy()) for st in self.states],
                 [t.vec.x.array.copy() for t in self._terms],
-                self.tau, dict(self.energy), self.time_steps, self.dt,
-                self._ke_ie_max, self._balance_max)
+                [t.residual_vector() for t in self._tools],
+                [loop.state() for loop in self._loops.values() if loop is not None],
+                self.tau, self.ledger.state(), self.time_steps, self.dt, self._dt_ref,
+                self._omega2_ref, self._omega2_now)
 
     def restore(self, snap: tuple) -> None:
-        """Return velocities, energies and time to a snapshot."""
-        (states, terms, self.tau, energy, self.time_steps, self.dt, self._ke_ie_max,
-         self._balance_max) = snap
-        self.energy = dict(energy)
+        """Return velocities, energies and time to a snapshot; history from the model."""
+        (states, terms, tools, loops, self.tau, ledger, self.time_steps, self.dt, self._dt_ref,
+         self._omega2_ref, self._omega2_now) = snap
+        self.ledger.set_state(ledger)
         for st, (v, a, fi, fa) in zip(self.states, states, strict=True):
             st.v[:], st.a[:] = v, a
             st.f_int.x.array[:], st.f_all.x.array[:] = fi, fa
         for t, vec in zip(self._terms, terms, strict=True):
             t.vec.x.array[:] = vec
+        for t, vec in zip(self._tools, tools, strict=True):
+            t.set_residual_vector(vec)
+            t.contact.pull_nodal(t.nodal)
+        for loop, state in zip([lp for lp in self._loops.values() if lp is not None], loops,
+                               strict=True):
+            loop.pull()
+            loop.set_state(state)
 
     def snapshot_layout(self) -> tuple:
         """Velocities, accelerations and force vectors are per body; the rest is global."""
@@ -358,13 +356,14 @@ class ExplicitSolver:
             return st.body.domain.layout(st.body.V)
 
         return ([(on(st),) * 4 for st in self.states], [on(t.state) for t in self._terms],
-                None, None, None, None, None, None)
+                [on(t.state) for t in self._tools],
+                [loop.state_layout() for loop in self._loops.values() if loop is not None],
+                None, None, None, None, None, None, None)
 
     # -- reporting --------------------------------------------------------------------------
     def balance(self) -> float:
         """Energy balance: kinetic + internal + friction + damping - external work [N mm]."""
-        e = self.energy
-        return e["kinetic"] + e["internal"] + e["friction"] + e["damping"] - e["external"]
+        return self.ledger.balance()
 
     def tool_force(self, contact) -> np.ndarray:
         """Mean force on the tool over the output interval (impulse over time).
@@ -392,46 +391,62 @@ class ExplicitSolver:
 
     def history_columns(self, result: StepResult) -> dict[str, float]:
         """Time increments of the interval, time, time step and the energy ledger [N mm]."""
-        e = self.energy
         return {"time_increments": result.work, "time_s": self.tau, "time_step_s": self.dt,
-                "energy_kinetic_Nmm": e["kinetic"], "energy_internal_Nmm": e["internal"],
-                "energy_friction_Nmm": e["friction"], "energy_damping_Nmm": e["damping"],
-                "work_external_Nmm": e["external"], "energy_balance_Nmm": self.balance()}
+                **self.ledger.columns()}
 
     def metrics(self) -> dict[str, float | bool]:
         """Figures every explicit run reports (``summary.json`` metrics)."""
-        ext = abs(self.energy["external"])
+        led = self.ledger
         return {
-            "kinetic_to_internal_max": self._ke_ie_max,
-            "quasi_static": self._ke_ie_max <= self.options.quasi_static_limit,
+            "kinetic_to_internal_max": led.ke_ie_max,
+            "quasi_static": led.ke_ie_max <= self.options.quasi_static_limit,
+            "hourglass_energy_fraction": led.hg_ie_max,
             "mass_added_fraction": self.mass_added_fraction,
-            "energy_balance_error_rel": self._balance_max / ext if ext > 0 else 0.0,
+            "energy_balance_error_rel": led.balance_error(),
         }
 
     def timing(self) -> dict[str, float]:
-        """Figures for ``summary.json`` timing."""
-        return {"time_steps": self.time_steps, "stable_time_step_s": self.dt,
-                "loading_time_s": self.options.loading_time,
-                "assembly_s": self.comm.allreduce(self.assembly_seconds) / self.comm.size}
+        """Figures for ``summary.json`` timing.
+
+        ``us_per_element_increment``: wall time of the time integration (the intervals'
+        solves) per element of every body and per increment [us].
+        """
+        n_el = self.comm.allreduce(sum(st.body.n_local_cells for st in self.states),
+                                   op=MPI.SUM)
+        out = {"time_steps": self.time_steps, "stable_time_step_s": self.dt,
+               "loading_time_s": self.options.loading_time,
+               "assembly_s": self.comm.allreduce(self.assembly_seconds) / self.comm.size,
+               "integration_s": self.integration_seconds, "elements": n_el}
+        if self.time_steps:
+            out["us_per_element_increment"] = (1e6 * self.integration_seconds
+                                               / (self.time_steps * n_el))
+        return out
 
     def parameters(self) -> dict:
         """The explicit settings the run used."""
         return {"explicit": asdict(self.options)}
 
     def validity(self) -> dict[str, bool]:
-        """Quasi-static (kinetic below the limit of internal energy), little added mass."""
-        return {"quasi_static": self._ke_ie_max <= self.options.quasi_static_limit,
-                "mass_added_below_limit": self.mass_added_fraction <= MASS_ADDED_LIMIT}
+        """Quasi-static, little added mass, little hourglass energy."""
+        led, opts = self.ledger, self.options
+        return {"quasi_static": led.ke_ie_max <= opts.quasi_static_limit,
+                "mass_added_below_limit": self.mass_added_fraction <= MASS_ADDED_LIMIT,
+                "hourglass_below_limit": led.hg_ie_max <= opts.hourglass_limit}
 
     def warnings(self) -> list[str]:
-        """A run that is not quasi-static, or that added much mass."""
+        """A run that is not quasi-static, that added much mass or hourglassed."""
         out = []
-        if self._ke_ie_max > self.options.quasi_static_limit:
-            out.append(f"explicit: kinetic energy reached {self._ke_ie_max:.1%} of the internal"
-                       f" energy (quasi-static limit {self.options.quasi_static_limit:.0%}): "
+        led, opts = self.ledger, self.options
+        if led.ke_ie_max > opts.quasi_static_limit:
+            out.append(f"explicit: kinetic energy reached {led.ke_ie_max:.1%} of the internal"
+                       f" energy (quasi-static limit {opts.quasi_static_limit:.0%}): "
                        "inertia distorts the answer; lengthen explicit.loading_time")
         if self.mass_added_fraction > MASS_ADDED_LIMIT:
             out.append(f"explicit: mass scaling added {self.mass_added_fraction:.1%} of the "
                        f"mass (above {MASS_ADDED_LIMIT:.0%}); raise explicit.loading_time or "
                        "lower explicit.target_time_step")
+        if led.hg_ie_max > opts.hourglass_limit:
+            out.append(f"explicit: hourglass energy reached {led.hg_ie_max:.1%} of the "
+                       f"internal energy (limit {opts.hourglass_limit:.0%}): refine the mesh, "
+                       "raise explicit.hourglass or use explicit.integration=full")
         return out

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 import ufl
-from dolfinx import fem, la  # noqa: I001
+from dolfinx import fem  # noqa: I001
 
 from forming import compat  # noqa: F401
 from forming.errors import InputError
+from forming.vectors import assembled
 
 
 def body_density(body) -> float:
@@ -59,17 +60,6 @@ class BodyState:
         self.m = self.m_phys.copy()
 
 
-def assembled(form: fem.Form, out: fem.Function | None = None) -> np.ndarray:
-    """Assemble a vector form, sum shared entries and update ghosts."""
-    vec = out.x if out is not None else la.vector(form.function_spaces[0].dofmap.index_map,
-                                                   form.function_spaces[0].dofmap.index_map_bs)
-    vec.array[:] = 0.0
-    fem.assemble_vector(vec.array, form)
-    vec.scatter_reverse(la.InsertMode.add)
-    vec.scatter_forward()
-    return vec.array if out is not None else vec.array.copy()
-
-
 class ExternalTerm:
     """A contact or interface traction on one body, assembled alone (energy bookkeeping)."""
 
@@ -89,3 +79,47 @@ class ExternalTerm:
     def r_new(self) -> np.ndarray:
         """The term's owned entries as last assembled."""
         return self.vec.x.array[: self.state.n_owned]
+
+
+class ToolTerm:
+    """A tool contact on one body, evaluated node by node at the rank's owned nodes.
+
+    Args:
+        state: The body's explicit state.
+        contact: The tool contact (a :class:`~forming.contact.terms.ContactTerm`).
+    """
+
+    def __init__(self, state: BodyState, contact):
+        self.state = state
+        self.contact = contact
+        self.nodal = contact.nodal()
+        self.dofs = self.nodal.dofs
+
+    def update(self) -> None:
+        """Evaluate the contact and add its residual to the body's (owned entries)."""
+        u = self.state.body.u.x.array
+        r = self.nodal.residual(u, self.contact.tool_offset())
+        self.state.f_all.x.array[self.dofs] += r.ravel()
+
+    def work_on_body(self, du: np.ndarray) -> float:
+        """Work of the contact forces on the body over the increment [N mm] (this rank).
+
+        Args:
+            du: The body's displacement increment (owned entries).
+        """
+        r = self.nodal.r_old + self.nodal.r
+        return -0.5 * float(r.ravel() @ du[self.dofs])
+
+    def commit(self) -> None:
+        """Accept the increment's friction history."""
+        self.nodal.commit(self.state.body.u.x.array, self.contact.tool_offset())
+
+    def residual_vector(self) -> np.ndarray:
+        """The last residual as an array of the body's vector (a snapshot)."""
+        full = np.zeros_like(self.state.body.u.x.array)
+        full[self.dofs] = self.nodal.r.ravel()
+        return full
+
+    def set_residual_vector(self, full: np.ndarray) -> None:
+        """Return the last residual to a snapshot."""
+        self.nodal.r[:] = full[self.dofs].reshape(-1, 3)

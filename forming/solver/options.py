@@ -113,6 +113,14 @@ class ExplicitOptions:
             0.02.
         quasi_static_limit: Largest kinetic over internal energy of a run that counts as
             quasi-static (5%, the usual guideline for Abaqus/Explicit forming).
+        integration: Solids on hexahedra: ``"full"`` (2 x 2 x 2 points, as the implicit
+            solver; default) or ``"reduced"`` (one point per element with
+            Flanagan-Belytschko hourglass control, as Abaqus' C3D8R: about 5 times
+            cheaper, but on the shipped meshes its crushing and bending depart from the
+            implicit answers, docs/validation.md). Fabric skins use their forms.
+        hourglass: Hourglass stiffness coefficient kappa of reduced integration
+            (``k = kappa M V |b|^2 / 3`` per element, docs/theory.md section 12).
+        hourglass_limit: Hourglass over internal energy above which a run is flagged.
     """
 
     loading_time: float = 0.05
@@ -122,8 +130,19 @@ class ExplicitOptions:
     damping: float = 0.0
     output_interval: float | None = None
     quasi_static_limit: float = 0.05
+    integration: Literal["full", "reduced"] = "full"
+    hourglass: float = 0.1
+    hourglass_limit: float = 0.05
 
     def __post_init__(self) -> None:
+        if self.integration not in ("reduced", "full"):
+            raise InputError("explicit.integration",
+                             f"must be 'reduced' or 'full', got {self.integration!r}")
+        if not (math.isfinite(self.hourglass) and self.hourglass >= 0):
+            raise InputError("explicit.hourglass", f"must be >= 0, got {self.hourglass!r}")
+        if not self.hourglass_limit > 0:
+            raise InputError("explicit.hourglass_limit",
+                             f"must be > 0, got {self.hourglass_limit!r}")
         if not (math.isfinite(self.loading_time) and self.loading_time > 0):
             raise InputError("explicit.loading_time", f"must be > 0 s, got {self.loading_time!r}")
         if self.amplitude not in ("smooth", "linear"):

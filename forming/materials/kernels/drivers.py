@@ -5,7 +5,9 @@ stress update per point), or the central difference of the stress update
 (``TANGENT_DIFFERENCE``, kept to verify it): :func:`.tangent._point_tensors` builds
 C and its 12 perturbations, which are diagonalised as one batch
 (:func:`.linalg.eig_sym3`) and sent through the stress update; :mod:`.tangent`
-forms the difference quotients. The entry points :func:`elastic_points`,
+forms the difference quotients. The stress alone (``TANGENT_NONE``: a residual, an
+explicit increment) takes the batched path of the closed form and skips the tangent.
+The entry points :func:`elastic_points`,
 :func:`foam_points` and :func:`foam_frozen_points` (the foam elastic about its
 plastic state) allocate the scratch arrays once per call (:func:`_new_work`) and
 run the allocation-free loop bodies.
@@ -128,8 +130,8 @@ def _batch_eigen(cmats, ip, cs, ms, qs, active, turn, rcs):
 
 
 @_inner
-def _elastic_points_closed(cmats, cel, measure, s_out, d_out, work, twork):
-    """Body of :func:`elastic_points` with the closed-form tangent."""
+def _elastic_points_closed(cmats, cel, measure, s_out, d_out, want_tangent, work, twork):
+    """Body of :func:`elastic_points` with the closed-form tangent (or none)."""
     cs, ms, qs, active, turn, rcs, rot, cr, c_eig, _lu, _s, _ok = work
     geo, mt, tmp, _sys = twork
     nbad = 0
@@ -142,7 +144,8 @@ def _elastic_points_closed(cmats, cel, measure, s_out, d_out, work, twork):
         s = _mv6(rot, _mul6(s_fac, t))
         for i in range(6):
             s_out[ip, i] = s[i]
-        elastic_tangent(d_out, ip, c, t, s_fac, c_eig, rot, measure, geo, mt, tmp)
+        if want_tangent:
+            elastic_tangent(d_out, ip, c, t, s_fac, c_eig, rot, measure, geo, mt, tmp)
     return nbad, STATUS_INVERTED if nbad else STATUS_OK
 
 
@@ -163,8 +166,9 @@ def elastic_points(cmats, cel, measure, s_out, d_out, tangent, h_rel):
     Returns:
         (number of points with a non-zero status, worst status).
     """
-    if tangent == TANGENT_CLOSED:
-        return _elastic_points_closed(cmats, cel, measure, s_out, d_out, _new_work(),
+    if tangent != TANGENT_DIFFERENCE:  # closed form, or the stress alone
+        return _elastic_points_closed(cmats, cel, measure, s_out, d_out,
+                                      tangent == TANGENT_CLOSED, _new_work(),
                                       _new_tangent_work())
     return _elastic_points(cmats, cel, measure, s_out, d_out, tangent == TANGENT_DIFFERENCE,
                            h_rel, _new_work())
@@ -209,8 +213,8 @@ def _foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
 
 @_inner
 def _foam_points_closed(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
-                        s_out, d_out, ep_out, evp_out, work, twork):
-    """Body of :func:`foam_points` with the closed-form tangent."""
+                        s_out, d_out, ep_out, evp_out, want_tangent, work, twork):
+    """Body of :func:`foam_points` with the closed-form tangent (or none)."""
     cs, ms, qs, active, turn, rcs, rot, cr, c_eig, lu, _s, _ok = work
     geo, mt, tmp, sysm = twork
     pc_slope = _hermite_slope_bound(xs, ys, ds)
@@ -233,6 +237,8 @@ def _foam_points_closed(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
         s = _mv6(rot, _mul6(s_fac, t))
         for i in range(6):
             s_out[ip, i] = s[i]
+        if not want_tangent:
+            continue
         if mu == 0.0:
             elastic_tangent(d_out, ip, c, t, s_fac, c_eig, rot, measure, geo, mt, tmp)
         elif not foam_plastic_tangent(d_out, ip, c, t, sig, mu, evp, s_fac, k_fac, c_eig, rot,
@@ -269,9 +275,10 @@ def foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
     Returns:
         (number of points with a non-zero status, worst status).
     """
-    if tangent == TANGENT_CLOSED:
+    if tangent != TANGENT_DIFFERENCE:  # closed form, or the stress alone
         return _foam_points_closed(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds, s_out,
-                                   d_out, ep_out, evp_out, _new_work(), _new_tangent_work())
+                                   d_out, ep_out, evp_out, tangent == TANGENT_CLOSED,
+                                   _new_work(), _new_tangent_work())
     return _foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds, s_out, d_out,
                         ep_out, evp_out, tangent == TANGENT_DIFFERENCE, h_rel, _new_work())
 
@@ -305,8 +312,9 @@ def _foam_frozen_points(cmats, ep_n, cel, measure, s_out, d_out, want_tangent, h
 
 
 @_inner
-def _foam_frozen_points_closed(cmats, ep_n, cel, measure, s_out, d_out, work, twork):
-    """Body of :func:`foam_frozen_points` with the closed-form tangent."""
+def _foam_frozen_points_closed(cmats, ep_n, cel, measure, s_out, d_out, want_tangent, work,
+                               twork):
+    """Body of :func:`foam_frozen_points` with the closed-form tangent (or none)."""
     cs, ms, qs, active, turn, rcs, rot, cr, c_eig, _lu, _s, _ok = work
     geo, mt, tmp, _sys = twork
     nbad = 0
@@ -320,7 +328,8 @@ def _foam_frozen_points_closed(cmats, ep_n, cel, measure, s_out, d_out, work, tw
             continue
         for i in range(6):
             s_out[ip, i] = s[i]
-        elastic_tangent(d_out, ip, c, t, s_fac, c_eig, rot, measure, geo, mt, tmp)
+        if want_tangent:
+            elastic_tangent(d_out, ip, c, t, s_fac, c_eig, rot, measure, geo, mt, tmp)
     return nbad, worst
 
 
@@ -346,8 +355,9 @@ def foam_frozen_points(cmats, ep_n, cel, measure, s_out, d_out, tangent, h_rel):
     Returns:
         (number of points with a non-zero status, worst status).
     """
-    if tangent == TANGENT_CLOSED:
-        return _foam_frozen_points_closed(cmats, ep_n, cel, measure, s_out, d_out, _new_work(),
+    if tangent != TANGENT_DIFFERENCE:  # closed form, or the stress alone
+        return _foam_frozen_points_closed(cmats, ep_n, cel, measure, s_out, d_out,
+                                          tangent == TANGENT_CLOSED, _new_work(),
                                           _new_tangent_work())
     return _foam_frozen_points(cmats, ep_n, cel, measure, s_out, d_out,
                                tangent == TANGENT_DIFFERENCE, h_rel, _new_work())

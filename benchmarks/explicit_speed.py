@@ -1,0 +1,140 @@
+"""Speed of the explicit solver: microseconds per element per time increment.
+
+For each scene: the wall time of the time integration (the sum of the output intervals'
+solves, ``history.csv`` ``step_wall_s``) over time increments times elements (every
+body's), with full and reduced integration of the hexahedral solids, serial, and on 2
+ranks for the finer hemisphere; with ``--before DIR`` (a checkout of an earlier
+revision) the same runs of that revision too. Writes docs/performance.md's
+``explicit_speed`` section. Targets (issue 16): at most 2 us per element per increment
+serial for the crushable-foam core with reduced integration; a 2-rank speed-up of at
+least 1.7 on the 20 x 20 x 4 hemisphere.
+
+The loading times are shortened (``explicit.loading_time``) where the default would take
+long: the cost of an increment does not depend on it, and the answers are not the
+subject here (docs/validation.md has them).
+
+Run: ``python benchmarks/explicit_speed.py [--before /path/to/checkout]`` (about 25
+minutes on 2 cores with ``--before``; nothing else should run meanwhile).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from _report import REPO, machine, run_case_process, update_section
+
+# (label, case, settings, solid: whether integration applies, 2 ranks too)
+SCENES = (
+    ("core, elastic (compression to 1%)", "core_compression",
+     ("cells=8,8,6", "strain=0.01", "explicit.loading_time=0.02"), True, False),
+    ("core, crushable foam (compression to 60%)", "core_compression",
+     ("cells=8,8,6", "strain=0.6", "explicit.loading_time=0.02"), True, False),
+    ("skin alone (bias extension)", "bias_extension", ("explicit.loading_time=0.01",), False,
+     False),
+    ("hemisphere with holder, 12 x 12 x 3", "hemisphere",
+     ("blank_holder=true", "cells=12,12,3"), True, False),
+    ("hemisphere with holder, 20 x 20 x 4", "hemisphere",
+     ("blank_holder=true", "cells=20,20,4", "explicit.loading_time=0.01"), True, True),
+)
+
+
+def _speed(summary: dict, out: Path, elements: int | None) -> dict:
+    """Increments, integration time and us per element per increment of a run."""
+    hist = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    seconds = float(np.sum(hist["step_wall_s"]))
+    t = summary["timing"]
+    n = elements or t["elements"]
+    steps = t["time_steps"]
+    return {"status": summary["status"], "increments": steps, "integration_s": seconds,
+            "elements": n, "us": 1e6 * seconds / (steps * n),
+            "force_N": summary["metrics"].get("punch_force_max_N",
+                                              summary["metrics"].get("force_max_N"))}
+
+
+def _revision(repo: Path) -> str:
+    return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=repo, text=True,
+                          capture_output=True, check=False).stdout.strip() or "?"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--before", type=Path, default=None,
+                        help="a checkout of the revision to compare with")
+    parser.add_argument("--only", nargs="*", default=None, help="labels to run (substrings)")
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for label, case, sets, solid, parallel in SCENES:
+            if args.only and not any(o in label for o in args.only):
+                continue
+            variants = [("full", ("explicit.integration=full",))] if solid else []
+            variants.insert(0, ("reduced" if solid else "forms", ()))
+            elements = None
+            for ranks in (1, 2) if parallel else (1,):
+                for name, extra in variants:
+                    out = tmp / f"{case}_{name}_{ranks}_{len(rows)}"
+                    s = run_case_process(case, out, ranks, allow_failure=True,
+                                         sets=("solver=explicit", *sets, *extra))
+                    row = {"scene": label, "variant": name, "ranks": ranks,
+                           "revision": _revision(REPO), **_speed(s, out, None)}
+                    elements = row["elements"]
+                    rows.append(row)
+                    print(row, flush=True)
+                if args.before is not None:
+                    out = tmp / f"{case}_before_{ranks}_{len(rows)}"
+                    s = run_case_process(case, out, ranks, allow_failure=True,
+                                         sets=("solver=explicit", *sets), repo=args.before)
+                    row = {"scene": label, "variant": "before (forms, full)", "ranks": ranks,
+                           "revision": _revision(args.before), **_speed(s, out, elements)}
+                    rows.append(row)
+                    print(row, flush=True)
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=1))
+    _report(rows)
+
+
+def _report(rows: list[dict]) -> None:
+    lines = [
+        "## Explicit solver: microseconds per element per increment (issue 16)", "",
+        f"Measured with `python benchmarks/explicit_speed.py --before <checkout>` on "
+        f"{machine()}, nothing else running. Integration time is the sum of the output "
+        "intervals' solves (the Gershgorin time-step bound at each interval included); "
+        "elements are every body's.", "",
+        "| scene | integration | revision | ranks | status | increments | elements "
+        "| integration [s] | us / element / increment | punch force max [N] |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        force = "" if r["force_N"] is None else f"{r['force_N']:.0f}"
+        lines.append(f"| {r['scene']} | {r['variant']} | {r['revision']} | {r['ranks']} "
+                     f"| {r['status']} | {r['increments']} | {r['elements']} "
+                     f"| {r['integration_s']:.1f} | {r['us']:.2f} | {force} |")
+    lines.append("")
+    foam = next((r for r in rows if r["scene"].startswith("core, crushable")
+                 and r["variant"] == "reduced"), None)
+    if foam:
+        lines.append(f"- Crushable-foam core, reduced integration, serial: {foam['us']:.2f} us "
+                     f"per element per increment (target 2: "
+                     f"{'met' if foam['us'] <= 2 else 'missed'}).")
+    for variant in ("reduced", "full", "before (forms, full)"):
+        pair = {r["ranks"]: r for r in rows if r["scene"].endswith("20 x 20 x 4")
+                and r["variant"] == variant}
+        if 1 in pair and 2 in pair:
+            speedup = pair[1]["integration_s"] / pair[2]["integration_s"]
+            same = pair[1]["increments"] == pair[2]["increments"]
+            lines.append(f"- Hemisphere 20 x 20 x 4, {variant}: 2-rank speed-up {speedup:.2f}"
+                         f" (target 1.7: {'met' if speedup >= 1.7 else 'missed'})"
+                         + ("" if same else "; the increment counts differ") + ".")
+    update_section("explicit_speed", "\n".join(lines), REPO / "docs" / "performance.md")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,273 @@
+"""Internal forces of a solid of trilinear hexahedra for the explicit solver.
+
+The explicit solver needs the internal force vector once per time increment and no
+tangent. :class:`HexInternalForce` computes it without forms: the compiled element
+loops of :mod:`.hexkernels` around the material's point kernel (the same stress update
+as the implicit solver's, :func:`~forming.materials.solids.point_stress`), on the
+rank's owned cells, into a preallocated vector.
+
+Two integrations:
+
+- ``full``: the body's own quadrature points (2 x 2 x 2 Gauss), the same stress at the
+  same points as the forms of the implicit solver;
+- ``reduced``: one point per element with the mean shape-function gradients of
+  Flanagan and Belytschko (``b = (1/V) int grad N dV``, exact volume), as Abaqus'
+  C3D8R, stabilised against its hourglass modes by the stiffness form of Flanagan and
+  Belytschko. The stiffness of each mode and displacement component is ``kappa``
+  times what the fully integrated elastic element puts against that mode
+  (:func:`mode_stiffness`): anisotropy and element shape are accounted for, and
+  ``kappa = 1`` restores the full element's resistance to pure hourglass modes. The
+  forces follow the modes in rate form, scaled by the element's tangent ratio (1 while
+  elastic, the hardening's series stiffness while it crushes, at least
+  :data:`PLASTIC_FLOOR`): an elastic hourglass spring would carry load a crushed
+  element no longer carries. The plastic history is then one value per element, copied
+  to the body's points when it is synchronised.
+
+See docs/theory.md, section 12.
+"""
+
+from __future__ import annotations
+
+import basix
+import numpy as np
+from dolfinx import la  # noqa: I001
+
+from forming import compat  # noqa: F401
+from forming.bodies.hexkernels import nodal_forces, right_cauchy_green, tangent_ratio
+from forming.errors import InputError, KernelFailure
+from forming.materials.solids import point_stress
+
+# Fraction of the elastic hourglass stiffness an element keeps while it flows plastically
+# (its tangent ratio is floored here): with none, crushing elements of core_crushing's
+# 16 x 16 x 6 mesh invert at 8.8 mm (docs/theory.md, section 12).
+PLASTIC_FLOOR = 0.1
+# Reference coordinates (-1 or +1) of the P1 hexahedron's nodes, basix order.
+_XI = 2.0 * basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron, 1,
+                                 ).points - 1.0
+# Hourglass base vectors xi eta, eta zeta, zeta xi, xi eta zeta at the nodes (4, 8).
+_H = np.array([_XI[:, 0] * _XI[:, 1], _XI[:, 1] * _XI[:, 2], _XI[:, 2] * _XI[:, 0],
+               _XI[:, 0] * _XI[:, 1] * _XI[:, 2]])
+_P1 = basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron, 1)
+
+
+def shape_gradients(x: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Reference gradients of the P1 shape functions and the Jacobians at ``points``.
+
+    Args:
+        x: (n_cells, 8, 3) node coordinates.
+        points: (n_q, 3) points of the reference cell [0, 1]^3.
+
+    Returns:
+        (gradients (n_cells, n_q, 8, 3), det J (n_cells, n_q)).
+
+    Raises:
+        InputError: An element is inverted or degenerate in the reference mesh.
+    """
+    dxi = _P1.tabulate(1, points)[1:4, :, :, 0]  # (3, n_q, 8): d N_a / d xi_k
+    jac = np.einsum("cai,kqa->cqik", x, dxi)  # d x_i / d xi_k
+    det = np.linalg.det(jac)
+    if np.any(det <= 0.0):
+        raise InputError("mesh", f"{int(np.sum(det <= 0))} hexahedron points with det J <= 0 "
+                         "(inverted or degenerate elements)")
+    inv = np.linalg.inv(jac)  # d xi_k / d x_j
+    return np.einsum("kqa,cqkj->cqaj", dxi, inv), det
+
+
+def mode_stiffness(gamma: np.ndarray, grads: np.ndarray, weights: np.ndarray,
+                   cel: np.ndarray) -> np.ndarray:
+    """Stiffness of each hourglass mode of each element under full integration [N/mm].
+
+    For mode ``alpha`` in displacement component ``i`` (nodal displacements
+    ``u_a = gamma_alpha,a e_i``, whose mode amplitude is ``q = |gamma|^2``), the element's
+    elastic 2 x 2 x 2 stiffness gives the energy ``u.K.u / 2``; the stiffness of the
+    amplitude is ``k = u.K.u / |gamma|^4``. It takes the material's anisotropy and the
+    element's shape into account: an in-plane mode of the honeycomb core is resisted by
+    its in-plane moduli, not by its through-thickness one.
+
+    Args:
+        gamma: (n_cells, 4, 8) hourglass vectors.
+        grads: (n_cells, n_q, 8, 3) shape-function gradients at the full points.
+        weights: (n_cells, n_q) quadrature weights times det J.
+        cel: (6, 6) Mandel elastic stiffness in the global frame.
+
+    Returns:
+        (n_cells, 4, 3) stiffness of every mode and component.
+    """
+    g = np.einsum("cma,cqaj->cmqj", gamma, grads)  # gradient of the mode's shape
+    r = 1.0 / np.sqrt(2.0)
+    out = np.zeros(gamma.shape[:2] + (3,))
+    for i in range(3):
+        eps = np.zeros(g.shape[:3] + (6,))  # Mandel sym(e_i (x) g)
+        eps[..., i] = g[..., i]
+        for m, (a, b) in enumerate(((1, 2), (0, 2), (0, 1)), start=3):
+            if i == a:
+                eps[..., m] = r * g[..., b]
+            elif i == b:
+                eps[..., m] = r * g[..., a]
+        energy = np.einsum("cmqk,kl,cmql,cq->cm", eps, cel, eps, weights)
+        out[..., i] = energy / np.sum(gamma * gamma, axis=2) ** 2
+    return out
+
+
+class HexInternalForce:
+    """Internal forces of one solid body on hexahedra, element by element.
+
+    Args:
+        body: The solid (:class:`~forming.bodies.solid.SolidBody`) on P1 hexahedra.
+        integration: ``"full"`` or ``"reduced"`` (one point, hourglass control).
+        hourglass: Hourglass coefficient ``kappa`` of the reduced element (>= 0).
+
+    Raises:
+        InputError: Not a P1 hexahedral body, a negative coefficient, or no density.
+    """
+
+    def __init__(self, body, integration: str, hourglass: float, density: float):
+        if body.mesh.topology.cell_name() != "hexahedron" or body.spec.degree != 1:
+            raise InputError(f"body.{body.name}", "the element loops need P1 hexahedra")
+        if integration not in ("full", "reduced"):
+            raise InputError("explicit.integration",
+                             f"must be 'full' or 'reduced', got {integration!r}")
+        if not hourglass >= 0.0:
+            raise InputError("explicit.hourglass", f"must be >= 0, got {hourglass!r}")
+        self.body = body
+        self.reduced = integration == "reduced"
+        V = body.V
+        self.nodes = np.ascontiguousarray(V.dofmap.list[body.point_cells], dtype=np.int64)
+        x = V.tabulate_dof_coordinates()[self.nodes]
+        pts = body.QS.element.interpolation_points
+        qpts, qw = basix.make_quadrature(basix.CellType.hexahedron, body.quadrature_degree)
+        if not np.allclose(qpts, pts):  # the body's points, in its order
+            raise InputError(f"body.{body.name}", "quadrature points differ from basix's")
+        grads, det = shape_gradients(x, pts)
+        weights = det * qw
+        modulus = float(np.max(np.diag(body.material.kernel_data().cel)))
+        self.wave2 = modulus / density
+        nc = self.nodes.shape[0]
+        self.per_cell = 1 if self.reduced else len(qw)
+        if self.reduced:
+            volume = weights.sum(axis=1)
+            mean = np.einsum("cq,cqaj->caj", weights, grads) / volume[:, None, None]
+            self.grads = np.ascontiguousarray(mean[:, None])
+            self.weights = volume[:, None].copy()
+            # gamma = h - (h . X) b: orthogonal to every linear field
+            hx = np.einsum("ma,cai->cmi", _H, x)
+            self.gamma = np.ascontiguousarray(_H[None] - np.einsum("cmi,cai->cma", hx, mean))
+            cel = body.material.kernel_data().cel
+            self.k_hg = hourglass * mode_stiffness(self.gamma, grads, weights, cel)
+        else:
+            self.grads = np.ascontiguousarray(grads)
+            self.weights = weights
+            self.gamma = np.zeros((0, 4, 8))
+            self.k_hg = np.zeros((nc, 4, 3))
+        n = nc * self.per_cell
+        self.cm = np.zeros((n, 9))
+        self.detf = np.zeros(n)
+        self.stress = np.zeros((n, 6))
+        plastic = body.plastic is not None
+        self.ep = np.zeros((n if plastic else 0, 6))
+        self.evp = np.zeros(n if plastic else 0)
+        self.ep_trial = self.ep.copy()
+        self.evp_trial = self.evp.copy()
+        # hourglass state per element: q_n, Q_n, trial q, trial Q; energy and new work
+        self.hg = np.zeros((4, nc, 4, 3))
+        self.hg_energy = np.zeros((2, nc))
+        self.phi = np.ones(nc)
+        k = body.material.kernel_data()
+        self._curve = (k.xs, k.ys, k.ds) if k.plastic else None
+        self.modulus = modulus
+        self.omega2 = 0.0  # the largest element frequency bound of the rank [1/s^2]
+        self.pull()
+
+    @property
+    def n_cells(self) -> int:
+        """Owned elements of the rank."""
+        return self.nodes.shape[0]
+
+    def forces(self, out: la.Vector) -> None:
+        """Internal forces at the body's displacement into ``out``, summed over ranks.
+
+        Args:
+            out: A vector of the body's displacement space (owned and ghost entries are
+                written).
+
+        Raises:
+            KernelFailure: An inverted element or a failed return mapping.
+        """
+        body = self.body
+        u = body.u.x.array
+        right_cauchy_green(u, self.nodes, self.grads, self.cm, self.detf)
+        bad = int(np.count_nonzero(self.detf <= 0.0))
+        if bad:
+            raise KernelFailure(f"{bad} integration points: inverted elements (det F <= 0)")
+        nbad, worst = point_stress(body.material, self.cm, self.ep, self.evp, self.stress,
+                                   self.ep_trial, self.evp_trial, body.load_increment,
+                                   body.travel)
+        if nbad:
+            what = "inverted elements" if worst == 1 else "return mapping failed"
+            raise KernelFailure(f"{nbad} integration points: {what}")
+        if self.reduced and self._curve is not None:
+            tangent_ratio(self.ep, self.evp, self.ep_trial, self.evp_trial, *self._curve,
+                          self.modulus, PLASTIC_FLOOR, self.phi)
+        out.array[:] = 0.0
+        self.omega2 = nodal_forces(u, self.nodes, self.grads, self.weights, self.stress,
+                                   self.gamma, self.k_hg, self.phi, self.hg,
+                                   self.hg_energy[1], self.wave2, out.array)
+        out.scatter_reverse(la.InsertMode.add)
+        out.scatter_forward()
+
+    @property
+    def hourglass_energy(self) -> float:
+        """Hourglass energy of the rank's elements at the last evaluation [N mm]."""
+        return float(self.hg_energy.sum())
+
+    def commit(self) -> None:
+        """Accept the trial plastic and hourglass state."""
+        self.ep[:] = self.ep_trial
+        self.evp[:] = self.evp_trial
+        if self.reduced:
+            self.hg[:2] = self.hg[2:]
+            self.hg_energy[0] += self.hg_energy[1]
+            self.hg_energy[1] = 0.0
+
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Converged hourglass state per element: (q_n and Q_n as (n, 24), energy (n,))."""
+        return (np.ascontiguousarray(self.hg[:2].transpose(1, 0, 2, 3)).reshape(-1, 24),
+                self.hg_energy[0].copy())
+
+    def set_state(self, state: tuple[np.ndarray, np.ndarray]) -> None:
+        """Return the hourglass state to :meth:`state`'s."""
+        self.hg[:2] = state[0].reshape(-1, 2, 4, 3).transpose(1, 0, 2, 3)
+        self.hg[2:] = self.hg[:2]
+        self.hg_energy[0] = state[1]
+        self.hg_energy[1] = 0.0
+
+    def state_layout(self) -> tuple:
+        """Where :meth:`state`'s arrays live (one row per owned cell)."""
+        dom = self.body.domain
+        return (dom.point_layout(1, 24), dom.point_layout(1, None))
+
+    def push(self) -> None:
+        """Copy the converged plastic state to the body's points (outputs, snapshots)."""
+        ps = self.body.plastic
+        if ps is None:
+            return
+        k = ps.ep.shape[0] // self.ep.shape[0] if self.ep.shape[0] else 1
+        ps.ep[:] = np.repeat(self.ep, k, axis=0)
+        ps.evp[:] = np.repeat(self.evp, k)
+        ps.ep_trial[:] = ps.ep
+        ps.evp_trial[:] = ps.evp
+        self.body.invalidate()
+
+    def pull(self) -> None:
+        """Take the body's converged plastic state (the start, or a restored snapshot).
+
+        A one-point element takes the mean of its cell's points.
+        """
+        ps = self.body.plastic
+        if ps is None:
+            return
+        n = self.ep.shape[0]
+        self.ep[:] = ps.ep.reshape(n, -1, 6).mean(axis=1)
+        self.evp[:] = ps.evp.reshape(n, -1).mean(axis=1)
+        self.ep_trial[:] = self.ep
+        self.evp_trial[:] = self.evp

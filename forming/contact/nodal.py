@@ -1,0 +1,107 @@
+"""Tool contact evaluated node by node, for the explicit solver's increments.
+
+:class:`~forming.contact.terms.ContactTerm` integrates its traction with the vertex
+rule, so its residual at a surface node is the node's traction times the node's share of
+the reference surface area. :class:`NodalContact` evaluates exactly that, vectorised
+over the region's owned nodes, without assembling a form: the gap and the normal come
+from the tool's signed distance (the normal by a one-sided difference of 1e-6 mm), the
+pressure is the penalty's (the explicit solver leaves the multipliers at zero), and the
+friction is the same Coulomb return with the same stick law. Its frictional history
+(the shear traction and the slip reference) lives in arrays here during a run, and is
+written back to the contact's functions (:meth:`push`) for outputs and snapshots.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from forming.contact.shapes import NUMPY
+
+_H = 1e-6  # difference step of the normal [mm]
+_TINY = 1e-30
+_SLACK = 1e-12  # stick test slack [MPa], as the forms
+
+
+class NodalContact:
+    """Penalty contact of a region's owned nodes with a rigid tool.
+
+    Args:
+        shape: The tool's signed distance (:mod:`forming.contact.shapes`).
+        nodes: Owned region nodes (block indices of the body's displacement space).
+        coords: (n, 3) reference coordinates of those nodes.
+        area: (n,) reference surface area of each node (vertex rule) [mm^2].
+        penalty: Normal penalty [N/mm^3].
+        friction: Coulomb coefficient (0: no tangential terms).
+        elastic_slip: Slip at full friction of the elastic-slip stick law [mm], or None
+            for the augmented stick law (stick penalty = ``penalty``).
+    """
+
+    def __init__(self, shape, nodes: np.ndarray, coords: np.ndarray, area: np.ndarray,
+                 penalty: float, friction: float, elastic_slip: float | None):
+        self.shape = shape
+        self.nodes = nodes
+        self.dofs = (3 * nodes[:, None] + np.arange(3)).ravel()
+        self.coords = coords
+        self.area = area
+        self.penalty = penalty
+        self.friction = friction
+        self.elastic_slip = elastic_slip
+        n = len(nodes)
+        self.r = np.zeros((n, 3))  # residual at the nodes: minus area times traction
+        self.r_old = np.zeros((n, 3))
+        self.shear = np.zeros((n, 3))  # shear traction of the last evaluation
+        self.lam_t = np.zeros((n, 3))  # converged shear traction
+        self.u_prev = np.zeros((n, 3))  # slip reference: displacement at the last commit
+        self.offset_prev = np.zeros(3)
+        # points and their +h shifts along x, y, z, as one batch for the distance
+        self._pts = np.empty((3, 4 * n))
+        self._shift = np.zeros((3, 4 * n))
+        for k in range(3):
+            self._shift[k, (k + 1) * n:(k + 2) * n] = _H
+
+    def residual(self, u: np.ndarray, offset: np.ndarray) -> np.ndarray:
+        """Residual entries of the contact at its nodes, (n, 3); kept as :attr:`r`.
+
+        Args:
+            u: The body's displacement array (3 per node).
+            offset: The tool's current displacement [mm].
+        """
+        self.r_old[:] = self.r
+        n = len(self.nodes)
+        un = u.reshape(-1, 3)[self.nodes]
+        p = (self.coords + un - offset).T
+        pts = self._pts
+        for k in range(4):
+            pts[:, k * n:(k + 1) * n] = p
+        pts += self._shift
+        d = self.shape.distance(pts, NUMPY)
+        gap = d[:n]
+        grad = (d[n:].reshape(3, n) - gap) / _H
+        normal = (grad / np.sqrt(np.sum(grad * grad, axis=0) + _TINY)).T
+        pressure = np.maximum(-self.penalty * gap, 0.0)
+        traction = pressure[:, None] * normal
+        if self.friction > 0.0:
+            slip = un - self.u_prev - (offset - self.offset_prev)
+            slip -= np.sum(slip * normal, axis=1)[:, None] * normal
+            lam = self.lam_t - np.sum(self.lam_t * normal, axis=1)[:, None] * normal
+            limit = self.friction * pressure
+            k_t = (self.penalty if self.elastic_slip is None
+                   else (limit / self.elastic_slip)[:, None])
+            trial = lam - k_t * slip
+            size = np.sqrt(np.sum(trial * trial, axis=1) + _TINY)
+            scale = np.where(size <= limit + _SLACK, 1.0, limit / size)
+            np.multiply(trial, scale[:, None], out=self.shear)
+            traction += self.shear
+        np.multiply(traction, -self.area[:, None], out=self.r)
+        return self.r
+
+    def commit(self, u: np.ndarray, offset: np.ndarray) -> None:
+        """Accept the increment: the shear becomes history, slip is measured from here."""
+        if self.friction > 0.0:
+            self.lam_t[:] = self.shear
+            self.u_prev[:] = u.reshape(-1, 3)[self.nodes]
+            self.offset_prev[:] = offset
+
+    def force_on_tool(self) -> np.ndarray:
+        """Mean force of this rank's nodes on the tool over the last increment [N]."""
+        return 0.5 * (self.r_old + self.r).sum(axis=0)
