@@ -3,7 +3,9 @@
 `hemisphere` with the blank holder (core only, 12 x 12 x 3 quarter mesh) run with
 
 - the implicit solver at several largest load steps (``max_step``), and
-- the explicit solver at several loading times and mass-scaling targets,
+- the explicit solver at several loading times and mass-scaling targets, with full
+  integration (the default) and with reduced integration (one point per element,
+  hourglass control; issue 16),
 
 each point giving its error against a converged reference (the implicit solver at a
 load step four times finer than the finest point) and its wall time. The error is the
@@ -86,7 +88,8 @@ def _chart(rows: list[dict], path: Path, title: str) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7.0, 4.8), dpi=120)
-    for solver, style in (("implicit", "o-"), ("explicit", "s--"), ("explicit, mass scaled", "^:")):
+    for solver, style in (("implicit", "o-"), ("explicit", "s--"), ("explicit, mass scaled", "^:"),
+                          ("explicit, reduced", "d-."), ("explicit, reduced, mass scaled", "v:")):
         pts = sorted((r for r in rows if r["series"] == solver and r["status"] == "completed"),
                      key=lambda r: r["wall_s"])
         if pts:
@@ -172,6 +175,20 @@ def main() -> None:
                   f"({factor:g}x)", f"{tload * 1e3:g} ms, dt x{factor:g}",
                   ("solver=explicit", f"explicit.loading_time={tload}",
                    f"explicit.target_time_step={target}"), tload)
+        # one-point elements with hourglass control (explicit.integration=reduced)
+        for tload in loading[-2:]:
+            point("explicit, reduced", f"reduced, loading time {tload} s",
+                  f"{tload * 1e3:g} ms, reduced",
+                  ("solver=explicit", f"explicit.loading_time={tload}",
+                   "explicit.integration=reduced"), tload)
+        for tload, factor in scaled:
+            target = factor * natural_dt
+            point("explicit, reduced, mass scaled",
+                  f"reduced, loading time {tload} s, target dt {target:.3g} s ({factor:g}x)",
+                  f"{tload * 1e3:g} ms, reduced, dt x{factor:g}",
+                  ("solver=explicit", f"explicit.loading_time={tload}",
+                   f"explicit.target_time_step={target}", "explicit.integration=reduced"),
+                  tload)
         ref_row = {"wall_s": ref["timing"]["wall_s"], "steps": ref["timing"]["steps"],
                    "force_max_N": float(np.max(ref_curve[1])), "crushed": ref_crushed,
                    "max_step": reference_step}

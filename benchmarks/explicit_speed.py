@@ -34,7 +34,7 @@ SCENES = (
      ("cells=8,8,6", "strain=0.01", "explicit.loading_time=0.02"), True, False),
     ("core, crushable foam (compression to 60%)", "core_compression",
      ("cells=8,8,6", "strain=0.6", "explicit.loading_time=0.02"), True, False),
-    ("skin alone (bias extension)", "bias_extension", ("explicit.loading_time=0.01",), False,
+    ("skin on a core (skin_sled, 50 core and 50 skin elements)", "skin_sled", (), True,
      False),
     ("hemisphere with holder, 12 x 12 x 3", "hemisphere",
      ("blank_holder=true", "cells=12,12,3"), True, False),
@@ -66,16 +66,22 @@ def main() -> None:
     parser.add_argument("--before", type=Path, default=None,
                         help="a checkout of the revision to compare with")
     parser.add_argument("--only", nargs="*", default=None, help="labels to run (substrings)")
-    parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--json", type=Path, default=None,
+                        help="rows file: read first (rows of the scenes not run are kept), "
+                             "then written")
     args = parser.parse_args()
     rows = []
+    if args.json is not None and args.json.is_file():
+        rows = [r for r in json.loads(args.json.read_text())
+                if args.only and not any(o in r["scene"] for o in args.only)]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for label, case, sets, solid, parallel in SCENES:
             if args.only and not any(o in label for o in args.only):
                 continue
-            variants = [("full", ("explicit.integration=full",))] if solid else []
-            variants.insert(0, ("reduced" if solid else "forms", ()))
+            variants = ([("reduced", ("explicit.integration=reduced",)),
+                         ("full", ("explicit.integration=full",))] if solid
+                        else [("forms", ())])
             elements = None
             for ranks in (1, 2) if parallel else (1,):
                 for name, extra in variants:

@@ -230,10 +230,11 @@ class Model:
         tests = self.test_functions()
         return [b.residual(tests[n]) for n, b in self.bodies.items()]
 
-    def jacobians(self) -> list[list[ufl.Form | None]]:
+    def jacobians(self, stiffest: bool = False) -> list[list[ufl.Form | None]]:
         """Blocks ``J[i][j] = dF_i/du_j`` (None where body j does not enter F_i).
 
-        Diagonal blocks use each body's consistent tangent; contact, traction-free
+        Diagonal blocks use each body's consistent tangent (``stiffest``: its
+        :meth:`stability_jacobian`, for the explicit time step); contact, traction-free
         interface and coupling terms are differentiated by UFL.
         """
         tests = self.test_functions()
@@ -244,7 +245,8 @@ class Model:
             blocks[i, j] = form if (i, j) not in blocks else blocks[i, j] + form
 
         for name, body in self.bodies.items():
-            add(name, name, body.jacobian(trials[name], tests[name]))
+            tangent = body.stability_jacobian if stiffest else body.jacobian
+            add(name, name, tangent(trials[name], tests[name]))
         for c in self.constraints:
             r = c.residuals(tests)
             for i in c.bodies:

@@ -97,6 +97,9 @@ class DeformableBody(Protocol):
     def warnings(self) -> list[str]:
         """What a user should know about the run's use of this body (collective)."""
 
+    def stability_jacobian(self, du, v) -> ufl.Form:
+        """A Jacobian at least as stiff as any the body reaches soon (explicit time step)."""
+
     def explicit_internal_force(self, integration: str, hourglass: float, density: float):
         """Element loops for the explicit solver, or None to use the form.
 
@@ -162,6 +165,10 @@ class BodyBase:
     def warnings(self) -> list[str]:
         """None by default."""
         return []
+
+    def stability_jacobian(self, du, v) -> ufl.Form:
+        """The Jacobian that bounds the explicit time step: :meth:`jacobian` by default."""
+        return self.jacobian(du, v)
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float):
         """None: the explicit solver assembles this body's internal forces from its form."""

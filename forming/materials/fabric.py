@@ -368,6 +368,16 @@ class NonCrimpFabric:
             psi = psi + 0.5 * e_mod * (r * e**2 + (1.0 - r) * g)
         return psi
 
+    def taut_fibre_energy(self, F: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+        """``E (lam - 1)^2 / 2`` per family: the fibres as stiff as they get (in tension).
+
+        Its second variation bounds the fibre stiffness of every state from above (the
+        explicit solver's stable time step: at rest the fibres sit in their toe with
+        ``compression_ratio`` times that stiffness).
+        """
+        return sum(0.5 * self.fibre_modulus * (lam - 1.0) ** 2
+                   for lam in self.fibre_stretches(F))
+
     def shear_energy(self, F: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
         """Picture-frame shear energy per unit volume ``W_s(gamma) / t``."""
         return self.shear.energy_ufl(self.shear_angle(F)) / self.thickness

@@ -293,7 +293,9 @@ class ExplicitSolver:
                 finite = all(np.all(np.isfinite(st.v)) for st in self.states)
                 local = np.array([2.0 * (not finite) + (signals.requested() is not None),
                                   self._local_omega2()])
-                code, omega2 = self.comm.allreduce(local, op=MPI.MAX)
+                both = np.empty(2)
+                self.comm.Allreduce(local, both, op=MPI.MAX)
+                code, omega2 = both
                 self._follow_stiffening(omega2)
                 if code:
                     ok = False
@@ -310,8 +312,8 @@ class ExplicitSolver:
             self._omega2_now = self._omega2()  # the stiffest element at the interval's end
             self.ledger.close_interval(self.comm, self._kinetic(), self._hourglass(),
                                        self._s_end)
-            self._impulse = {k: self.comm.allreduce(v, op=MPI.SUM)
-                             for k, v in self._impulse.items()}
+            for v in self._impulse.values():
+                self.comm.Allreduce(MPI.IN_PLACE, v, op=MPI.SUM)
         elif not reason:
             reason = "failed on another rank"
         seconds = time.perf_counter() - t0

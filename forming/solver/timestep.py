@@ -1,9 +1,10 @@
 """The stable time step of the explicit solver, and mass scaling.
 
 The bound is Gershgorin's on the assembled system: the largest eigenvalue of
-``M^-1 K`` is at most ``max_i sum_j |K_ij| / m_i``, with K the tangent of elastic
-unloading (the plastic state frozen: the stiffest response) plus every contact penalty
-a node may meet, open or not. It is evaluated at the start and at every output
+``M^-1 K`` is at most ``max_i sum_j |K_ij| / m_i``, with K the stiffest tangent each
+body may reach soon (:meth:`stability_jacobian`: elastic unloading of a solid, its
+plastic state frozen; a fabric's fibres taut) plus every contact penalty a node may
+meet, open or not. It is evaluated at the start and at every output
 interval; between them the explicit solver follows the stiffest element
 (:meth:`forming.solver.explicit.ExplicitSolver`).
 """
@@ -38,7 +39,7 @@ class StableStep:
         self.options = options
         self.comm = model.comm
         tests = model.test_functions()
-        jac = model.jacobians()
+        jac = model.jacobians(stiffest=True)
         estimates = [c.stiffness_estimate(tests) for c in model.constraints]
         # coupled blocks reach into the other bodies: every body's entity map
         maps = model.entity_maps or None

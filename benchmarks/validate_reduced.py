@@ -1,0 +1,120 @@
+"""Reduced against full integration in the explicit solver (issue 16, item 1).
+
+For each scene: one implicit run, the explicit run with full integration (the default)
+and with reduced integration (one point, hourglass control), each explicit run compared
+with the implicit one by ``forming compare --reuse`` (force-stroke RMS within 3% of the
+peak, final shape within 2% of the core thickness). Also the cantilever of
+``tests/test_hexforce.py`` for several hourglass coefficients. Writes
+docs/validation.md's ``reduced`` section.
+
+Run: ``python benchmarks/validate_reduced.py [--ranks 2]`` (about 15 minutes on 2 cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from _report import REPO, machine, run_case_process, update_section
+
+sys.path.insert(0, str(REPO / "tests"))
+
+SCENES = (
+    ("core_crushing", "core_crushing", ()),
+    ("core_crushing, 16 x 16 x 6", "core_crushing", ("cells=16,16,6",)),
+    ("hemisphere with holder, 12 x 12 x 3", "hemisphere", ("blank_holder=true",
+                                                         "cells=12,12,3")),
+    ("hemisphere free, 12 x 12 x 3", "hemisphere", ("blank_holder=false", "cells=12,12,3",
+                                                  "explicit.loading_time=0.1")),
+)
+KAPPAS = (0.0, 0.05, 0.1, 0.3)
+
+
+def _compare(case: str, sets: tuple[str, ...], out: Path) -> dict:
+    cmd = [str(Path(sys.executable).parent / "forming"), "compare", case, "--out", str(out),
+           "--reuse"]
+    for s in sets:
+        cmd += ["--set", s]
+    proc = subprocess.run(cmd, cwd=REPO, env=dict(os.environ, OMP_NUM_THREADS="1"),
+                          capture_output=True, text=True)
+    if not (out / "compare.json").is_file():
+        raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stderr[-3000:]}")
+    return json.loads((out / "compare.json").read_text())
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--ranks", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=REPO / "results" / "validate_reduced")
+    args = parser.parse_args()
+    rows = []
+    for name, case, sets in SCENES:
+        base = args.out / name.replace(" ", "_").replace(",", "")
+        imp = base / "implicit"
+        if not (imp / "summary.json").is_file():
+            run_case_process(case, imp, args.ranks, sets=sets, allow_failure=True)
+        for integration in ("full", "reduced"):
+            folder = base / integration
+            folder.mkdir(parents=True, exist_ok=True)
+            link = folder / "implicit"
+            if not link.exists():
+                link.symlink_to(imp.resolve())
+            s = run_case_process(case, folder / "explicit", args.ranks, allow_failure=True,
+                                 sets=("solver=explicit", f"explicit.integration={integration}",
+                                       *sets))
+            r = _compare(case, sets, folder)
+            m = s["metrics"]
+            rows.append({"scene": name, "integration": integration, "status": s["status"],
+                         "force_rms": r["force_rms_diff_rel"],
+                         "peak_diff": r.get("peak_force_diff_rel", float("nan")),
+                         "shape_rms": r["shape_rms_diff_rel_thickness"],
+                         "hourglass": m.get("hourglass_energy_fraction", 0.0),
+                         "crushed": (r["metrics"].get("crushed_volume_mm3", {})),
+                         "wall": s["timing"]["wall_s"], "meets": r["meets_targets"]})
+            print(rows[-1], flush=True)
+    from test_hexforce import _cantilever
+
+    beams = [(k, *_cantilever("reduced", k)) for k in KAPPAS]
+    beams.append(("full integration", *_cantilever("full", 0.0)))
+    _report(rows, beams, args.ranks)
+
+
+def _report(rows: list[dict], beams: list, ranks: int) -> None:
+    lines = [
+        "## Reduced integration in the explicit solver (issue 16)", "",
+        f"`python benchmarks/validate_reduced.py --ranks {ranks}` on {machine()}. Each "
+        "explicit run against one implicit run of the same scene (`forming compare "
+        "--reuse`); targets 3% force RMS, 2% shape RMS. Hourglass: the largest hourglass "
+        "over internal energy after 5% of the load (`metrics.hourglass_energy_fraction`).",
+        "",
+        "| scene | integration | status | force RMS diff | peak diff | shape RMS | hourglass "
+        "/ internal | crushed volume imp. / exp. [mm^3] | wall [s] | targets |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        cv = r["crushed"]
+        crushed = (f"{cv['implicit']:.0f} / {cv['explicit']:.0f}"
+                   if isinstance(cv, dict) and cv else "-")
+        lines.append(
+            f"| {r['scene']} | {r['integration']} | {r['status']} | {r['force_rms']:.2%} "
+            f"| {r['peak_diff']:+.2%} | {r['shape_rms']:.2%} | {r['hourglass']:.1%} "
+            f"| {crushed} | {r['wall']:.0f} | {'met' if r['meets'] else 'missed'} |")
+    lines += [
+        "", "Cantilever 100 x 10 x 10 mm, 40 x 2 x 4 elements, tip shear, static (the "
+        "element loops' stiffness by central differences): tip deflection over "
+        "Timoshenko's, hourglass over internal energy (targets 5% and 2%).", "",
+        "| hourglass coefficient | deflection / beam theory | hourglass / internal |",
+        "|---|---|---|",
+    ]
+    for k, ratio, hg in beams:
+        lines.append(f"| {k} | {ratio:.4f} | {hg:.2%} |")
+    update_section("reduced", "\n".join(lines), REPO / "docs" / "validation.md")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
