@@ -59,8 +59,9 @@ def test_explicit_two_ranks_matches_serial(tmp_path, integration):
     the crushing curve the histories agree to round-off (measured 3e-14 of the peak,
     asserted 1e-9); on the softening branch the layers collapse one after another and
     round-off grows (asserted 1e-3 of the peak, 5% with reduced integration), with the
-    same number of increments up to one per output interval. A failure before the peak means an element, a contact
-    node or an energy counted twice or missed at a partition boundary.
+    same number of increments up to one per output interval. A failure before the peak
+    means an element, a contact node or an energy counted twice or missed at a partition
+    boundary.
     """
     sets = ["cells=4,4,2", "solver=explicit", "explicit.loading_time=0.01",
             f"explicit.integration={integration}"]
