@@ -25,13 +25,12 @@ sys.path.insert(0, str(REPO / "tests"))
 
 SCENES = (
     ("core_crushing", "core_crushing", ()),
-    ("core_crushing, 16 x 16 x 6", "core_crushing", ("cells=16,16,6",)),
     ("hemisphere with holder, 12 x 12 x 3", "hemisphere", ("blank_holder=true",
                                                          "cells=12,12,3")),
     ("hemisphere free, 12 x 12 x 3", "hemisphere", ("blank_holder=false", "cells=12,12,3",
                                                   "explicit.loading_time=0.1")),
 )
-KAPPAS = (0.0, 0.05, 0.1, 0.3)
+KAPPAS = (0.01, 0.05, 0.1, 0.3)  # 0: the hourglass modes are free (singular)
 
 
 def _compare(case: str, sets: tuple[str, ...], out: Path) -> dict:
@@ -50,6 +49,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--ranks", type=int, default=1)
     parser.add_argument("--out", type=Path, default=REPO / "results" / "validate_reduced")
+    parser.add_argument("--rerun", nargs="*", default=("full", "reduced"),
+                        help="integrations to run again; the others' runs in --out are "
+                             "compared as they are (implicit runs are always reused)")
     args = parser.parse_args()
     rows = []
     for name, case, sets in SCENES:
@@ -63,9 +65,12 @@ def main() -> None:
             link = folder / "implicit"
             if not link.exists():
                 link.symlink_to(imp.resolve())
-            s = run_case_process(case, folder / "explicit", args.ranks, allow_failure=True,
+            done = folder / "explicit" / "summary.json"
+            if integration in args.rerun or not done.is_file():
+                run_case_process(case, folder / "explicit", args.ranks, allow_failure=True,
                                  sets=("solver=explicit", f"explicit.integration={integration}",
                                        *sets))
+            s = json.loads(done.read_text())
             r = _compare(case, sets, folder)
             m = s["metrics"]
             rows.append({"scene": name, "integration": integration, "status": s["status"],
@@ -76,6 +81,8 @@ def main() -> None:
                          "crushed": (r["metrics"].get("crushed_volume_mm3", {})),
                          "wall": s["timing"]["wall_s"], "meets": r["meets_targets"]})
             print(rows[-1], flush=True)
+    import dolfinx_solver  # noqa: F401  (PETSc and MPI before dolfinx)
+
     from test_hexforce import _cantilever
 
     beams = [(k, *_cantilever("reduced", k)) for k in KAPPAS]

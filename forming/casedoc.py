@@ -122,7 +122,8 @@ def case_help(name: str, doc: str, params_cls: type) -> str:
         format_params(describe_params(ExplicitOptions), "explicit."),
         format_params([d for d in describe_params(NewtonOptions) if d.name != "petsc"],
                       "newton."),
-        "  (newton.*: the case's own settings, e.g. line_search, stay unless given)", "",
+        "  (explicit.* and newton.*: the case's own settings, e.g. loading_time or "
+        "line_search, stay unless given)", "",
         "PETSc options follow as -forming_<option> value (e.g. -forming_snes_monitor).",
         "outputs, units and exit codes: README.md.",
     ])

@@ -100,7 +100,8 @@ class DeformableBody(Protocol):
     def stability_jacobian(self, du, v) -> ufl.Form:
         """A Jacobian at least as stiff as any the body reaches soon (explicit time step)."""
 
-    def explicit_internal_force(self, integration: str, hourglass: float, density: float):
+    def explicit_internal_force(self, integration: str, hourglass: float, density: float,
+                                plastic_floor: float = 0.3):
         """Element loops for the explicit solver, or None to use the form.
 
         The loops are a :class:`~forming.bodies.hexforce.HexInternalForce`.
@@ -170,9 +171,10 @@ class BodyBase:
         """The Jacobian that bounds the explicit time step: :meth:`jacobian` by default."""
         return self.jacobian(du, v)
 
-    def explicit_internal_force(self, integration: str, hourglass: float, density: float):
+    def explicit_internal_force(self, integration: str, hourglass: float, density: float,
+                                plastic_floor: float = 0.3):
         """None: the explicit solver assembles this body's internal forces from its form."""
-        del integration, hourglass, density
+        del integration, hourglass, density, plastic_floor
 
     def nodal_coordinates(self) -> np.ndarray:
         """Reference coordinates of the owned displacement nodes, (n, 3)."""

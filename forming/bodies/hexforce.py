@@ -19,8 +19,8 @@ Two integrations:
   ``kappa = 1`` restores the full element's resistance to pure hourglass modes. The
   forces follow the modes in rate form, scaled by the element's tangent ratio (1 while
   elastic, the hardening's series stiffness while it crushes, at least
-  :data:`PLASTIC_FLOOR`): an elastic hourglass spring would carry load a crushed
-  element no longer carries. The plastic history is then one value per element, copied
+  ``plastic_floor``): an elastic hourglass spring would carry load a crushed element no
+  longer carries. The plastic history is then one value per element, copied
   to the body's points when it is synchronised.
 
 See docs/theory.md, section 12.
@@ -37,10 +37,6 @@ from forming.bodies.hexkernels import nodal_forces, right_cauchy_green, tangent_
 from forming.errors import InputError, KernelFailure
 from forming.materials.solids import point_stress
 
-# Fraction of the elastic hourglass stiffness an element keeps while it flows plastically
-# (its tangent ratio is floored here): with none, crushing elements of core_crushing's
-# 16 x 16 x 6 mesh invert at 8.8 mm (docs/theory.md, section 12).
-PLASTIC_FLOOR = 0.1
 # Reference coordinates (-1 or +1) of the P1 hexahedron's nodes, basix order.
 _XI = 2.0 * basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron, 1,
                                  ).points - 1.0
@@ -116,12 +112,15 @@ class HexInternalForce:
         body: The solid (:class:`~forming.bodies.solid.SolidBody`) on P1 hexahedra.
         integration: ``"full"`` or ``"reduced"`` (one point, hourglass control).
         hourglass: Hourglass coefficient ``kappa`` of the reduced element (>= 0).
+        density: Mass density [t/mm^3] (the element frequency bound).
+        plastic_floor: Smallest tangent ratio of a plastically flowing element.
 
     Raises:
         InputError: Not a P1 hexahedral body, a negative coefficient, or no density.
     """
 
-    def __init__(self, body, integration: str, hourglass: float, density: float):
+    def __init__(self, body, integration: str, hourglass: float, density: float,
+                 plastic_floor: float = 0.3):
         if body.mesh.topology.cell_name() != "hexahedron" or body.spec.degree != 1:
             raise InputError(f"body.{body.name}", "the element loops need P1 hexahedra")
         if integration not in ("full", "reduced"):
@@ -175,6 +174,7 @@ class HexInternalForce:
         k = body.material.kernel_data()
         self._curve = (k.xs, k.ys, k.ds) if k.plastic else None
         self.modulus = modulus
+        self.plastic_floor = plastic_floor
         self.omega2 = 0.0  # the largest element frequency bound of the rank [1/s^2]
         self.pull()
 
@@ -207,7 +207,7 @@ class HexInternalForce:
             raise KernelFailure(f"{nbad} integration points: {what}")
         if self.reduced and self._curve is not None:
             tangent_ratio(self.ep, self.evp, self.ep_trial, self.evp_trial, *self._curve,
-                          self.modulus, PLASTIC_FLOOR, self.phi)
+                          self.modulus, self.plastic_floor, self.phi)
         out.array[:] = 0.0
         self.omega2 = nodal_forces(u, self.nodes, self.grads, self.weights, self.stress,
                                    self.gamma, self.k_hg, self.phi, self.hg,

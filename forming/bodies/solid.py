@@ -209,12 +209,12 @@ class SolidBody(BodyBase):
                        self.domain.point_layout(per_cell, None))
         return (self.domain.layout(self.V), plastic, self.domain.layout(self.QS))
 
-    def explicit_internal_force(self, integration: str, hourglass: float,
-                                density: float) -> HexInternalForce | None:
+    def explicit_internal_force(self, integration: str, hourglass: float, density: float,
+                                plastic_floor: float = 0.3) -> HexInternalForce | None:
         """Element loops for the explicit solver on P1 hexahedra; None: use the forms."""
         if self.mesh.topology.cell_name() != "hexahedron" or self.spec.degree != 1:
             return None
-        return HexInternalForce(self, integration, hourglass, density)
+        return HexInternalForce(self, integration, hourglass, density, plastic_floor)
 
     def contact_stiffness(self) -> float:
         """Largest diagonal elastic modulus [MPa] (sets default contact penalties)."""

@@ -76,7 +76,8 @@ class ExplicitSolver:
         emaps = model.entity_maps or None
         # internal forces: element loops where the body has them, else its form
         self._loops = {st.name: st.body.explicit_internal_force(
-            opts.integration, opts.hourglass, body_density(st.body)) for st in self.states}
+            opts.integration, opts.hourglass, body_density(st.body), opts.hourglass_plastic)
+            for st in self.states}
         self._internal = {n: fem.form(b.residual(tests[n]), entity_maps=emaps)
                           for n, b in model.bodies.items() if self._loops[n] is None}
         # tool contacts node by node: tool work and friction energy

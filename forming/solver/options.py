@@ -120,6 +120,10 @@ class ExplicitOptions:
             implicit answers, docs/validation.md). Fabric skins use their forms.
         hourglass: Hourglass stiffness coefficient kappa of reduced integration
             (``k = kappa M V |b|^2 / 3`` per element, docs/theory.md section 12).
+        hourglass_plastic: Smallest fraction of its elastic hourglass stiffness a
+            reduced-integration element keeps while it flows plastically (its tangent
+            ratio is floored here): lower follows crushing more closely, higher keeps
+            crushing elements from inverting (docs/theory.md section 12).
         hourglass_limit: Hourglass over internal energy above which a run is flagged.
     """
 
@@ -132,6 +136,7 @@ class ExplicitOptions:
     quasi_static_limit: float = 0.05
     integration: Literal["full", "reduced"] = "full"
     hourglass: float = 0.1
+    hourglass_plastic: float = 0.3
     hourglass_limit: float = 0.05
 
     def __post_init__(self) -> None:
@@ -140,6 +145,9 @@ class ExplicitOptions:
                              f"must be 'reduced' or 'full', got {self.integration!r}")
         if not (math.isfinite(self.hourglass) and self.hourglass >= 0):
             raise InputError("explicit.hourglass", f"must be >= 0, got {self.hourglass!r}")
+        if not 0.0 <= self.hourglass_plastic <= 1.0:
+            raise InputError("explicit.hourglass_plastic",
+                             f"must lie in [0, 1], got {self.hourglass_plastic!r}")
         if not self.hourglass_limit > 0:
             raise InputError("explicit.hourglass_limit",
                              f"must be > 0, got {self.hourglass_limit!r}")
