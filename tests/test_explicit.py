@@ -142,3 +142,43 @@ def test_several_bodies_balance_energy_and_flag_dynamics(tmp_path):
     assert m["energy_balance_error_rel"] < 0.02
     assert m["quasi_static"] == (m["kinetic_to_internal_max"] <= 0.05)
     assert not m["quasi_static"]  # 2 mm of drag in 10 ms moves the light skin hard
+
+
+_CHEAP_DEFAULTS = ("core_compression", "core_tension", "core_shear")
+_ALL_DEFAULTS = ("core_crushing", "strip_bending", "sandwich_bending", "skin_sled",
+                 "hemisphere", "picture_frame", "bias_extension")
+
+
+def _default_explicit_run(case: str, out) -> dict:
+    """A case run with ``--set solver=explicit`` and nothing else (its defaults)."""
+    return run_case(case, out, ["solver=explicit"])
+
+
+@pytest.mark.parametrize("case", _CHEAP_DEFAULTS)
+def test_default_explicit_run_is_quasi_static(tmp_path, case):
+    """A user who asks for the explicit solver and nothing else gets a quasi-static answer.
+
+    The case's own loading time (docs/theory.md section 12: the shortest of 0.05 s times
+    a power of 2 that keeps the kinetic energy within half the 5% limit) must give a
+    completed run, kinetic below 5% of the internal energy, and an energy balance within
+    1% (issue #16, item 4). The costlier cases are in the slow test below
+    (`scripts/dev.sh validate`). A failure means a case's default loading time is too
+    short for its slowest mode, or that a change made the explicit run dynamic.
+    """
+    s = _default_explicit_run(case, tmp_path)
+    assert s["status"] == "completed"
+    assert s["metrics"]["quasi_static"], s["metrics"]["kinetic_to_internal_max"]
+    assert s["metrics"]["energy_balance_error_rel"] < 0.01
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", _ALL_DEFAULTS)
+def test_default_explicit_run_is_quasi_static_slow(tmp_path, case):
+    """As :func:`test_default_explicit_run_is_quasi_static`, for the costlier cases (minutes
+    to a quarter of an hour each: default meshes; the fabric-only cases run at their
+    taut fibres' stable step). Also ``python benchmarks/explicit_defaults.py``.
+    """
+    s = _default_explicit_run(case, tmp_path)
+    assert s["status"] == "completed"
+    assert s["metrics"]["quasi_static"], s["metrics"]["kinetic_to_internal_max"]
+    assert s["metrics"]["energy_balance_error_rel"] < 0.01
