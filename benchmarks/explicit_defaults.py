@@ -71,9 +71,13 @@ def main() -> int:
         lines.append(f"| {name} | {r['status']} | {r['loading_time']:g} | {r['increments']} "
                      f"| {r['ke_ie']:.2%} | {'yes' if r['quasi_static'] else 'no'} "
                      f"| {r['balance']:.1e} | {r['wall']:.0f} |")
-        if r["status"] != "completed" or not r["quasi_static"]:
-            bad.append(f"{name}: {r['status']} {r['reason']}".strip())
-    lines += ["", "Not quasi-static or not completed: " + ("; ".join(bad) if bad else "none.")]
+        if r["status"] != "completed":
+            bad.append(f"{name} ({r['status']}: {r['reason']})")
+        elif not r["quasi_static"]:
+            bad.append(f"{name} (KE/IE {r['ke_ie']:.0%})")
+    missing = [n for n in CASES if n not in rows]
+    lines += ["", "Not quasi-static or not completed: " + (", ".join(bad) if bad else "none")
+              + "." + (f" Not run yet: {', '.join(missing)}." if missing else "")]
     update_section("explicit_defaults", "\n".join(lines), REPO / "docs" / "validation.md")
     print("\n".join(lines))
     return 1 if bad else 0
