@@ -145,8 +145,17 @@ def test_several_bodies_balance_energy_and_flag_dynamics(tmp_path):
 
 
 _CHEAP_DEFAULTS = ("core_compression", "core_tension", "core_shear")
-_ALL_DEFAULTS = ("core_crushing", "strip_bending", "sandwich_bending", "skin_sled",
-                 "hemisphere", "picture_frame", "bias_extension")
+_OPEN = "issue 16: not yet quasi-static with its default loading time (docs/validation.md)"
+_ALL_DEFAULTS = (
+    "core_crushing", "hemisphere",
+    pytest.param("strip_bending", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
+    pytest.param("sandwich_bending", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
+    pytest.param("skin_sled", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
+    pytest.param("bias_extension", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
+    pytest.param("picture_frame", marks=pytest.mark.xfail(
+        reason="issue 16: unstable at load 0.83 (the fabric's bound is taken per interval)",
+        strict=True)),
+)
 
 
 def _default_explicit_run(case: str, out) -> dict:
