@@ -233,22 +233,20 @@ class ContactTerm:
         nc = NodalContact(self.tool.shape, nodes, V.tabulate_dof_coordinates()[nodes],
                           area.x.array[3 * nodes], self.penalty, self.friction,
                           self.elastic_slip)
+        if self.lam_t is not None:  # blocks of the shear function at the nodes
+            Wv = self.lam_t.function_space
+            blocks = np.empty(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts,
+                              dtype=np.int64)
+            blocks[V.dofmap.list] = Wv.dofmap.list
+            self._shear_blocks = blocks[nodes]
         self.pull_nodal(nc)
         return nc
-
-    def _shear_nodes(self, nc: NodalContact) -> np.ndarray:
-        """Blocks of the shear function at the nodal contact's nodes."""
-        V, Wv = self.body.V, self.lam_t.function_space
-        blocks = np.empty(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts,
-                          dtype=np.int64)
-        blocks[V.dofmap.list] = Wv.dofmap.list
-        return blocks[nc.nodes]
 
     def pull_nodal(self, nc: NodalContact) -> None:
         """Give a nodal contact this term's friction history (start, restored snapshot)."""
         if self.lam_t is None:
             return
-        nc.lam_t[:] = self.lam_t.x.array.reshape(-1, 3)[self._shear_nodes(nc)]
+        nc.lam_t[:] = self.lam_t.x.array.reshape(-1, 3)[self._shear_blocks]
         nc.u_prev[:] = self.u_prev.x.array.reshape(-1, 3)[nc.nodes]
         nc.offset_prev[:] = self._offset_prev.value
 
@@ -256,7 +254,7 @@ class ContactTerm:
         """Take a nodal contact's friction history (outputs and snapshots see it)."""
         if self.lam_t is None:
             return
-        self.lam_t.x.array.reshape(-1, 3)[self._shear_nodes(nc)] = nc.lam_t
+        self.lam_t.x.array.reshape(-1, 3)[self._shear_blocks] = nc.lam_t
         self.lam_t.x.scatter_forward()
         self.u_prev.x.array.reshape(-1, 3)[nc.nodes] = nc.u_prev
         self.u_prev.x.scatter_forward()

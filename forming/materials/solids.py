@@ -120,6 +120,9 @@ def evaluate(
     return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad), int(worst))
 
 
+_NO_TANGENT = np.zeros((0, 36))  # the stress-only kernels never write a tangent
+
+
 def point_stress(material: PointMaterial, cmats: np.ndarray, ep_n: np.ndarray,
                  evp_n: np.ndarray, s_out: np.ndarray, ep_out: np.ndarray,
                  evp_out: np.ndarray, load_increment: float = 0.0,
@@ -133,16 +136,13 @@ def point_stress(material: PointMaterial, cmats: np.ndarray, ep_n: np.ndarray,
         (number of points with a non-zero status, worst status).
     """
     k = material.kernel_data()
-    none = _NO_TANGENT
     if not k.plastic:
-        return kernels.elastic_points(cmats, k.cel, k.measure, s_out, none, kernels.TANGENT_NONE,
-                                      0.0)
+        return kernels.elastic_points(cmats, k.cel, k.measure, s_out, _NO_TANGENT,
+                                      kernels.TANGENT_NONE, 0.0)
     return kernels.foam_points(cmats, ep_n, evp_n, k.cel, k.measure,
                                _props(material, k, load_increment, travel), k.xs, k.ys, k.ds,
-                               s_out, none, ep_out, evp_out, kernels.TANGENT_NONE, 0.0)
-
-
-_NO_TANGENT = np.zeros((0, 36))
+                               s_out, _NO_TANGENT, ep_out, evp_out, kernels.TANGENT_NONE,
+                               0.0)
 
 
 def _props(material: PointMaterial, k: KernelData, load_increment: float,

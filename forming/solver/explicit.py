@@ -78,6 +78,7 @@ class ExplicitSolver:
         self._loops = {st.name: st.body.explicit_internal_force(
             opts.integration, opts.hourglass, body_density(st.body), opts.hourglass_plastic)
             for st in self.states}
+        self._loop_list = [loop for loop in self._loops.values() if loop is not None]
         self._internal = {n: fem.form(b.residual(tests[n]), entity_maps=emaps)
                           for n, b in model.bodies.items() if self._loops[n] is None}
         # tool contacts node by node: tool work and friction energy
@@ -91,7 +92,7 @@ class ExplicitSolver:
             for tr, const, ds in model.tractions]
         self._terms = [*self._sides, *self._loads]  # assembled from forms
         # what the solver commits itself at every increment (not through the model)
-        self._own = {id(st.body) for st in self.states if self._loops[st.name] is not None}
+        self._own = {id(loop.body) for loop in self._loop_list}
         self._own |= {id(t.contact) for t in self._tools}
         # recorded reactions: the residual at a face's prescribed dofs, f_all . w
         self._reactions = [(key, by_name[name], w.x.array[: by_name[name].n_owned])
@@ -122,8 +123,7 @@ class ExplicitSolver:
     # -- time step ------------------------------------------------------------------------
     def _local_omega2(self) -> float:
         """The largest element frequency bound of this rank's element loops [1/s^2]."""
-        return max((loop.omega2 for loop in self._loops.values() if loop is not None),
-                   default=0.0)
+        return max((loop.omega2 for loop in self._loop_list), default=0.0)
 
     def _omega2(self) -> float:
         """The largest element frequency bound over all ranks (collective)."""
@@ -195,9 +195,8 @@ class ExplicitSolver:
             self._accelerate(st)
         for tool in self._tools:
             tool.commit()
-        for loop in self._loops.values():
-            if loop is not None:
-                loop.commit()
+        for loop in self._loop_list:
+            loop.commit()
         model.commit(exclude=self._own)
         self.time_steps += 1
 
@@ -243,13 +242,12 @@ class ExplicitSolver:
 
     def _hourglass(self) -> float:
         """Hourglass energy of this rank's elements [N mm]."""
-        return sum(loop.hourglass_energy for loop in self._loops.values() if loop is not None)
+        return sum(loop.hourglass_energy for loop in self._loop_list)
 
     def _push(self) -> None:
         """Hand the element loops' and nodal contacts' history to the model's objects."""
-        for loop in self._loops.values():
-            if loop is not None:
-                loop.push()
+        for loop in self._loop_list:
+            loop.push()
         for tool in self._tools:
             tool.contact.push_nodal(tool.nodal)
 
@@ -281,7 +279,8 @@ class ExplicitSolver:
         ok = True
         try:
             if self.time_steps:  # the constructor evaluated the bound at the start
-                self._push()  # the Gershgorin bound reads the body's plastic state
+                # the Gershgorin bound reads the body's plastic state, which the last
+                # interval's end (or a restore) handed over
                 self.dt = self._dt_ref = self._bound.time_step()
                 self._omega2_ref = self._omega2_now
             while self.tau < tau_end * (1 - 1e-12):
@@ -331,7 +330,7 @@ class ExplicitSolver:
                   st.f_all.x.array.copy()) for st in self.states],
                 [t.vec.x.array.copy() for t in self._terms],
                 [t.residual_vector() for t in self._tools],
-                [loop.state() for loop in self._loops.values() if loop is not None],
+                [loop.state() for loop in self._loop_list],
                 self.tau, self.ledger.state(), self.time_steps, self.dt, self._dt_ref,
                 self._omega2_ref, self._omega2_now)
 
@@ -348,8 +347,7 @@ class ExplicitSolver:
         for t, vec in zip(self._tools, tools, strict=True):
             t.set_residual_vector(vec)
             t.contact.pull_nodal(t.nodal)
-        for loop, state in zip([lp for lp in self._loops.values() if lp is not None], loops,
-                               strict=True):
+        for loop, state in zip(self._loop_list, loops, strict=True):
             loop.pull()
             loop.set_state(state)
 
@@ -360,7 +358,7 @@ class ExplicitSolver:
 
         return ([(on(st),) * 4 for st in self.states], [on(t.state) for t in self._terms],
                 [on(t.state) for t in self._tools],
-                [loop.state_layout() for loop in self._loops.values() if loop is not None],
+                [loop.state_layout() for loop in self._loop_list],
                 None, None, None, None, None, None, None)
 
     # -- reporting --------------------------------------------------------------------------
