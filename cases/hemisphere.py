@@ -21,6 +21,9 @@ and backtracking the transverse core stalls in the first step (docs/theory.md, s
 ``--set skins=true``: the full sandwich, a core between two FCIM359 NCF skins (+/-45 deg,
 0.4 mm per ply) sliding on the core (0.52) and on the tools (0.23); the metrics add each
 skin's shear range, the area beyond the wrinkling angles (+42 / -50 deg) and the slip.
+``--set tools=stl`` (or ``step``): the same tools as surface meshes, built with
+OpenCASCADE and written under ``meshes/generated/tools`` on first use; ``tool_angle``
+sets their tessellation (docs/validation.md, tools from surface meshes).
 Run: ``python cases/hemisphere.py --set blank_holder=true`` (add ``skins=true``).
 """
 
@@ -32,6 +35,7 @@ from typing import Literal
 
 from forming import post
 from forming.blanks import SKINS, Skins, rectangular_blank
+from forming.cad import Tessellation
 from forming.case import main, require
 from forming.errors import InputError
 from forming.job import Job, Response
@@ -76,6 +80,9 @@ class Params:
     skin_smoothing: float = 0.0  # smoothed interface pressure ramp (fraction)
     tool_stick: Literal["auto", "augmented", "elastic_slip"] = "auto"  # tool stick law
     tool_penalty: float | None = None  # tool contact penalty [N/mm^3]; none: 10 C_max / h
+    tools: Literal["analytic", "stl", "step"] = "analytic"  # tools: formulas or surface meshes
+    tool_angle: float = 5.0  # surface-mesh tools: largest angle per triangle on curved faces [deg]
+    tool_max_size: float = 25.0  # surface-mesh tools: largest triangle on flat faces [mm]
 
 
 def hinges_at_zero_pressure(p: Params) -> bool:
@@ -118,7 +125,8 @@ def build(p: Params) -> Job:
     stick, search = contact_numerics(p)
     tools, contacts = hemisphere_tools(
         b, p.punch_diameter, p.die_diameter, p.edge_radius, p.stroke,
-        p.tool_skin_friction if p.skins else p.friction, p.blank_holder, stick)
+        p.tool_skin_friction if p.skins else p.friction, p.blank_holder, stick,
+        p.tools, Tessellation(p.tool_angle, p.tool_max_size))
     if p.tool_penalty is not None:
         contacts = tuple(replace(c, penalty=p.tool_penalty) for c in contacts)
     scene = Scene(name="hemisphere", mesh=b.mesh, bodies=b.bodies, displacements=b.symmetry(),

@@ -267,6 +267,22 @@ class Model:
         for c in self.constraints:
             c.set_load(t)
 
+    def search_timing(self) -> dict[str, float]:
+        """``contact_search_s``: closest-point queries on surface-mesh tools, rank mean [s].
+
+        Empty for a scene whose tools are all analytic.
+        """
+        shapes = [t.shape for t in self.scene.tools if t.shape.tracked]
+        if not shapes:
+            return {}
+        local = sum(s.search_seconds for s in shapes)
+        return {"contact_search_s": self.comm.allreduce(local) / self.comm.size}
+
+    def track(self) -> None:
+        """Every constraint follows the current configuration (before each assembly)."""
+        for c in self.constraints:
+            c.track()
+
     def commit(self, exclude: Collection[int] = ()) -> None:
         """Accept the converged state as history.
 

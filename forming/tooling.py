@@ -6,18 +6,49 @@ same tooling serves the core, the sandwich and, later, meso-scale blanks.
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
 from typing import Literal
 
+import numpy as np
+from mpi4py import MPI
+
 from forming.blanks import Blank
+from forming.cad import HemisphereToolSet, Tessellation, hemisphere_tool_files
 from forming.contact.shapes import AnnularPlate, HemisphericalPunch
+from forming.contact.surface import SurfaceTool
 from forming.scene import Contact, Linear, Tool
 
 Stick = Literal["augmented", "elastic_slip"]
+Source = Literal["analytic", "stl", "step"]
+
+PUNCH_LENGTH = 150.0  # shank above the hemisphere [mm]
+
+
+def generated_dir() -> Path:
+    """Where generated tool files go: ``$FORMING_MESH_CACHE`` or ``meshes/generated``."""
+    env = os.environ.get("FORMING_MESH_CACHE")
+    return Path(env) if env else Path(__file__).resolve().parents[1] / "meshes" / "generated"
+
+
+def _surface_tools(tools: HemisphereToolSet, source: Source, tess: Tessellation,
+                   top: float, bottom: float) -> dict[str, SurfaceTool]:
+    """The hemisphere tools read back from generated STL or STEP files, placed."""
+    comm = MPI.COMM_WORLD
+    directory = generated_dir() / "tools" / tools.key(tess)
+    if comm.rank == 0 and not (directory / "holder.step").is_file():
+        hemisphere_tool_files(directory, tools, tess)
+    comm.barrier()
+    suffix = ".stl" if source == "stl" else ".step"
+    return {name: SurfaceTool(directory / f"{name}{suffix}", translate=(0.0, 0.0, z),
+                              tessellation=tess)
+            for name, z in (("punch", top), ("die", bottom), ("holder", top))}
 
 
 def hemisphere_tools(blank: Blank, punch_diameter: float = 100.0, die_diameter: float = 144.0,
                      edge_radius: float = 10.0, stroke: float = 50.0, friction: float = 0.36,
-                     holder: bool = False, stick: Stick = "augmented"
+                     holder: bool = False, stick: Stick = "augmented",
+                     source: Source = "analytic", tessellation: Tessellation | None = None
                      ) -> tuple[tuple[Tool, ...], tuple[Contact, ...]]:
     """Hemispherical punch, die with a round opening and optional blank holder.
 
@@ -25,18 +56,32 @@ def hemisphere_tools(blank: Blank, punch_diameter: float = 100.0, die_diameter: 
     blank's top; die and holder are fixed annular plates with edge radius
     ``edge_radius`` around an opening of ``die_diameter``.
 
+    ``source="stl"`` or ``"step"`` gives the same tools as surface meshes
+    (:mod:`forming.contact.surface`): solids built with OpenCASCADE, written once under
+    :func:`generated_dir` (``forming.cad``), read back from their STL triangles or meshed
+    again from STEP; die and holder are then discs reaching 40 mm beyond the blank's
+    farthest corner.
+
     Returns:
         The tools (punch, die, holder) and the contacts of the blank's upper and lower
         bodies with them.
     """
     hole = die_diameter / 2
-    tools = [Tool("punch", HemisphericalPunch((0.0, 0.0, blank.top), punch_diameter / 2,
-                                              length=150.0), z=Linear(-stroke)),
-             Tool("die", AnnularPlate((0.0, 0.0, blank.bottom), hole, edge_radius, side=-1))]
+    shapes = {"punch": HemisphericalPunch((0.0, 0.0, blank.top), punch_diameter / 2,
+                                          length=PUNCH_LENGTH),
+              "die": AnnularPlate((0.0, 0.0, blank.bottom), hole, edge_radius, side=-1),
+              "holder": AnnularPlate((0.0, 0.0, blank.top), hole, edge_radius, side=1)}
+    if source != "analytic":
+        x = blank.mesh.mesh.geometry.x
+        reach = float(np.hypot(x[:, 0], x[:, 1]).max()) if len(x) else 0.0
+        plate = blank.mesh.mesh.comm.allreduce(reach, op=MPI.MAX) + 40.0
+        shapes = _surface_tools(
+            HemisphereToolSet(punch_diameter / 2, PUNCH_LENGTH, hole, edge_radius, plate),
+            source, tessellation or Tessellation(), blank.top, blank.bottom)
+    tools = [Tool("punch", shapes["punch"], z=Linear(-stroke)), Tool("die", shapes["die"])]
     contacts = [Contact(blank.upper, "top", "punch", friction=friction, stick=stick),
                 Contact(blank.lower, "bottom", "die", friction=friction, stick=stick)]
     if holder:
-        tools.append(Tool("holder", AnnularPlate((0.0, 0.0, blank.top), hole, edge_radius,
-                                                 side=1)))
+        tools.append(Tool("holder", shapes["holder"]))
         contacts.append(Contact(blank.upper, "top", "holder", friction=friction, stick=stick))
     return tuple(tools), tuple(contacts)

@@ -40,6 +40,13 @@ class Constraint(Protocol):
     def set_load(self, t: float) -> None:
         """Apply the load programme at load parameter ``t`` (a tool moves)."""
 
+    def track(self) -> None:
+        """Follow the current configuration (closest points on a surface mesh).
+
+        Called before every residual and Jacobian; a constraint whose geometry is a UFL
+        expression has nothing to do.
+        """
+
     def violation(self) -> float:
         """Constraint violation of the current solution [mm]."""
 

@@ -254,6 +254,9 @@ class InterfaceTerm:
             worst = max(worst, self._reduce_max(np.linalg.norm(new - old, axis=1)))
         return worst / self.penalty
 
+    def track(self) -> None:
+        """Nothing to follow: the skin and core nodes stay paired (small sliding)."""
+
     def augment(self) -> None:
         """Uzawa update: the multipliers become the tractions of :meth:`violation`."""
         d = self._dofs

@@ -4,7 +4,8 @@
 rule, so its residual at a surface node is the node's traction times the node's share of
 the reference surface area. :class:`NodalContact` evaluates exactly that, vectorised
 over the region's owned nodes, without assembling a form: the gap and the normal come
-from the tool's signed distance (the normal by a one-sided difference of 1e-6 mm), the
+from the tool's ``gap_normal`` (a difference of an analytic distance, or the closest
+point on a surface mesh), the
 pressure is the penalty's (the explicit solver leaves the multipliers at zero), and the
 friction is the same Coulomb return with the same stick law. Its frictional history
 (the shear traction and the slip reference) lives in arrays here during a run, and is
@@ -15,9 +16,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from forming.contact.shapes import NUMPY
-
-_H = 1e-6  # difference step of the normal [mm]
 _TINY = 1e-30
 _SLACK = 1e-12  # stick test slack [MPa], as the forms
 
@@ -26,7 +24,8 @@ class NodalContact:
     """Penalty contact of a region's owned nodes with a rigid tool.
 
     Args:
-        shape: The tool's signed distance (:mod:`forming.contact.shapes`).
+        shape: The tool's shape (:mod:`forming.contact.shapes`,
+            :mod:`forming.contact.surface`).
         nodes: Owned region nodes (block indices of the body's displacement space).
         coords: (n, 3) reference coordinates of those nodes.
         area: (n,) reference surface area of each node (vertex rule) [mm^2].
@@ -39,6 +38,7 @@ class NodalContact:
     def __init__(self, shape, nodes: np.ndarray, coords: np.ndarray, area: np.ndarray,
                  penalty: float, friction: float, elastic_slip: float | None):
         self.shape = shape
+        self._tracker = shape.tracker()
         self.nodes = nodes
         self.dofs = (3 * nodes[:, None] + np.arange(3)).ravel()
         self.coords = coords
@@ -53,11 +53,6 @@ class NodalContact:
         self.lam_t = np.zeros((n, 3))  # converged shear traction
         self.u_prev = np.zeros((n, 3))  # slip reference: displacement at the last commit
         self.offset_prev = np.zeros(3)
-        # points and their +h shifts along x, y, z, as one batch for the distance
-        self._pts = np.empty((3, 4 * n))
-        self._shift = np.zeros((3, 4 * n))
-        for k in range(3):
-            self._shift[k, (k + 1) * n:(k + 2) * n] = _H
 
     def residual(self, u: np.ndarray, offset: np.ndarray) -> np.ndarray:
         """Residual entries of the contact at its nodes, (n, 3); kept as :attr:`r`.
@@ -67,17 +62,8 @@ class NodalContact:
             offset: The tool's current displacement [mm].
         """
         self.r_old[:] = self.r
-        n = len(self.nodes)
         un = u.reshape(-1, 3)[self.nodes]
-        p = (self.coords + un - offset).T
-        pts = self._pts
-        for k in range(4):
-            pts[:, k * n:(k + 1) * n] = p
-        pts += self._shift
-        d = self.shape.distance(pts, NUMPY)
-        gap = d[:n]
-        grad = (d[n:].reshape(3, n) - gap) / _H
-        normal = (grad / np.sqrt(np.sum(grad * grad, axis=0) + _TINY)).T
+        gap, normal = self._tracker.gap_normal(self.coords + un - offset)
         pressure = np.maximum(-self.penalty * gap, 0.0)
         traction = pressure[:, None] * normal
         if self.friction > 0.0:
@@ -94,6 +80,10 @@ class NodalContact:
             traction += self.shear
         np.multiply(traction, -self.area[:, None], out=self.r)
         return self.r
+
+    def repair(self) -> None:
+        """Search a surface-mesh tool's tree again at the next evaluation."""
+        self._tracker.repair()
 
     def commit(self, u: np.ndarray, offset: np.ndarray) -> None:
         """Accept the increment: the shear becomes history, slip is measured from here."""

@@ -81,13 +81,18 @@ def tool_surface(shape: Shape, bounds: Bounds, resolution: float) -> pyvista.Pol
             about two million points at most.
 
     Returns:
-        The triangulated zero level set of the distance, empty when the tool does not
-        cross the box.
+        The triangulated zero level set of the distance (a surface-mesh tool: its own
+        triangles), empty when the tool does not cross the box.
 
     Raises:
         ValueError: If the bounds are empty or the resolution is not positive.
     """
     grid = _image_grid(bounds, resolution)
+    if shape.tracked:
+        surface = shape.polydata().clip_box(list(bounds), invert=False).extract_surface(
+            algorithm="dataset_surface")
+        surface.clear_data()
+        return surface
     d = _distance(shape, np.asarray(grid.points, dtype=float).T)
     if d.min() > 0.0 or d.max() < 0.0:
         return pyvista.PolyData()

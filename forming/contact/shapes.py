@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from types import SimpleNamespace
+from typing import ClassVar
 
 import numpy as np
 import ufl
@@ -32,8 +33,42 @@ def _norm3(xp, a, b, c):
     return xp.sqrt(a * a + b * b + c * c + _EPS2)
 
 
+_H = 1e-6  # difference step of the normal [mm]
+
+
+class AnalyticShape:
+    """What every analytic shape shares: a UFL distance, a normal by differences."""
+
+    tracked: ClassVar[bool] = False  # the distance is a UFL expression
+    search_seconds: ClassVar[float] = 0.0  # no closest-point search
+
+    def gap_normal(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Signed distance (n,) and outward normal (n, 3) of the (n, 3) points.
+
+        The normal is a one-sided difference of the distance with a step of 1e-6 mm.
+        """
+        n = len(points)
+        pts = np.tile(np.asarray(points, dtype=float).T, 4)
+        for k in range(3):
+            pts[k, (k + 1) * n:(k + 2) * n] += _H
+        d = np.broadcast_to(np.asarray(self.distance(pts, NUMPY), dtype=float), (4 * n,))
+        grad = (d[n:].reshape(3, n) - d[:n]) / _H
+        normal = (grad / np.sqrt(np.sum(grad * grad, axis=0) + 1e-30)).T
+        return d[:n].copy(), normal
+
+    def check_units(self, extent: float) -> None:
+        """Nothing to check: an analytic shape is given in mm."""
+
+    def tracker(self) -> AnalyticShape:
+        """Itself: a formula has nothing to track (see ``SurfaceTool.tracker``)."""
+        return self
+
+    def repair(self) -> None:
+        """Nothing to search again."""
+
+
 @dataclass(frozen=True)
-class Plane:
+class Plane(AnalyticShape):
     """Half-space tool ``n . (p - point) <= 0`` (a platen); ``normal`` points out of it."""
 
     point: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -51,7 +86,7 @@ class Plane:
 
 
 @dataclass(frozen=True)
-class HemisphericalPunch:
+class HemisphericalPunch(AnalyticShape):
     """A cylinder of ``radius`` with a hemispherical end (a capsule), axis along z.
 
     Attributes:
@@ -82,7 +117,7 @@ class HemisphericalPunch:
 
 
 @dataclass(frozen=True)
-class Roller:
+class Roller(AnalyticShape):
     """An infinitely long cylinder (a bending-test roller), axis along y.
 
     Attributes:
@@ -103,7 +138,7 @@ class Roller:
 
 
 @dataclass(frozen=True)
-class RoundedBox:
+class RoundedBox(AnalyticShape):
     """A box with all edges rounded (the square punch with filleted edges).
 
     Attributes:
@@ -132,7 +167,7 @@ class RoundedBox:
 
 
 @dataclass(frozen=True)
-class AnnularPlate:
+class AnnularPlate(AnalyticShape):
     """A plate with a rounded circular opening (a die, or a blank holder).
 
     The opening's axis is the z-axis through ``center``.
@@ -174,3 +209,4 @@ class AnnularPlate:
 
 
 Shape = Plane | HemisphericalPunch | Roller | RoundedBox | AnnularPlate
+"""The analytic shapes; a tool may also be a :class:`~forming.contact.surface.SurfaceTool`."""

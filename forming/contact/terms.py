@@ -18,9 +18,19 @@ from mpi4py import MPI
 from forming.contact.laws import coulomb_return, normal_pressure, tangent_projector
 from forming.contact.nodal import NodalContact
 from forming.contact.shapes import UFL
+from forming.contact.tracking import ClosestPoints
 from forming.history import MAX_PENETRATION, ForceSampler, force_column
 from forming.scene import Contact, Tool
 from forming.vectors import assembled
+
+
+def _extent(msh) -> float:
+    """Largest extent of a mesh's bounding box, over all ranks [mm]."""
+    x = msh.geometry.x
+    local = np.concatenate([-x.min(axis=0), x.max(axis=0)]) if len(x) else np.full(6, -np.inf)
+    both = np.empty(6)
+    msh.comm.Allreduce(local, both, op=MPI.MAX)
+    return float(np.max(both[3:] + both[:3]))
 
 
 def surface_edge_min(msh, facets: np.ndarray) -> float:
@@ -53,6 +63,9 @@ class ContactTerm:
         parent = body.domain.md.mesh  # the scene mesh (forms)
         self.comm = msh.comm
         facets = body.domain.facets(spec.region)
+        tool.shape.check_units(_extent(msh))
+        # a surface-mesh tool: closest points tracked node by node (tracking.py)
+        self._track = ClosestPoints(tool.shape, body, facets) if tool.shape.tracked else None
         h = surface_edge_min(msh, facets)
         self.tolerance = spec.tolerance or 0.01 * min(h, thickness)
         stiffness = body.contact_stiffness()
@@ -103,9 +116,13 @@ class ContactTerm:
         """Gap, normal, pressure, shear (None without friction) and traction at ``x``."""
         u = self.body.u
         p = ufl.variable(x + u - self._offset)
-        gap = self.tool.shape.distance(p, UFL)
-        grad = ufl.diff(gap, p)
-        normal = grad / ufl.sqrt(ufl.dot(grad, grad) + 1e-30)
+        if self._track is None:
+            gap = self.tool.shape.distance(p, UFL)
+            grad = ufl.diff(gap, p)
+            normal = grad / ufl.sqrt(ufl.dot(grad, grad) + 1e-30)
+        else:  # a surface mesh: the tracked closest point (tracking.py)
+            gap = ufl.dot(self._track.normal, p - self._track.closest)
+            normal = self._track.direction(p)
         pressure = normal_pressure(self.lam_n - self._eps * gap)
         traction = pressure * normal
         shear = None
@@ -137,6 +154,13 @@ class ContactTerm:
     def set_load(self, t: float) -> None:
         """Move the tool to its position at load parameter ``t``."""
         self._offset.value[:] = self.tool.offset(t)
+        if self._track is not None:  # a new load step: search the tree again
+            self._track.repair()
+
+    def track(self) -> None:
+        """Closest points of the current configuration on a surface-mesh tool."""
+        if self._track is not None:
+            self._track.update(self._offset.value)
 
     def tool_offset(self) -> np.ndarray:
         """Current displacement of the tool from its initial position [mm]."""
@@ -149,6 +173,7 @@ class ContactTerm:
 
     def penetration(self) -> float:
         """Largest penetration of a surface node into the tool [mm] (0 if none)."""
+        self.track()
         self._gap.interpolate(self._gap_expr, cells0=self._cells)
         return max(self._reduce_max(-self._gap.x.array[self._owned]), 0.0)
 
@@ -187,6 +212,7 @@ class ContactTerm:
         takes the converged shear traction.
         """
         if self.lam_t is not None:
+            self.track()
             self._t_new.interpolate(self._t_expr, cells0=self._cells)
             d = self._dofs
             self.lam_t.x.array.reshape(-1, 3)[d] = self._t_new.x.array.reshape(-1, 3)[d]
@@ -203,6 +229,8 @@ class ContactTerm:
 
     def restore(self, snap: tuple) -> None:
         """Return to a snapshot."""
+        if self._track is not None:
+            self._track.repair()
         self.lam_n.x.array[:] = snap[0]
         if self.lam_t is not None:
             self.lam_t.x.array[:] = snap[1]
@@ -263,23 +291,27 @@ class ContactTerm:
     # -- outputs -----------------------------------------------------------------------
     def force(self) -> np.ndarray:
         """Force the body exerts on the tool [N] (a punch pushed down feels +z)."""
+        self.track()
         return np.array([self.comm.allreduce(fem.assemble_scalar(f), op=MPI.SUM)
                          for f in self._force_forms])
 
     def nodal_pressure(self) -> tuple[np.ndarray, np.ndarray]:
         """Contact pressure [MPa] and reference coordinates of this rank's region nodes."""
+        self.track()
         self._p_new.interpolate(self._p_expr, cells0=self._cells)
         x = self._p_new.function_space.tabulate_dof_coordinates()
         return self._p_new.x.array[self._owned].copy(), x[self._owned]
 
     def nodal_gap(self) -> tuple[np.ndarray, np.ndarray]:
         """Gap to the tool [mm] and reference coordinates of this rank's region nodes."""
+        self.track()
         self._gap.interpolate(self._gap_expr, cells0=self._cells)
         x = self._gap.function_space.tabulate_dof_coordinates()
         return self._gap.x.array[self._owned].copy(), x[self._owned]
 
     def contact_area(self) -> float:
         """Area of the region in contact [mm^2] (nodal, vertex rule)."""
+        self.track()
         return self.comm.allreduce(fem.assemble_scalar(self._area_form), op=MPI.SUM)
 
     def history_columns(self, forces: ForceSampler) -> dict[str, float]:

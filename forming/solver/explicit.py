@@ -269,6 +269,8 @@ class ExplicitSolver:
         self._reaction_impulse = {key: 0.0 for key, _st, _w in self._reactions}
         self._tau_start = self.tau
         self.model.set_load(self.options.load(self.tau))
+        for tool in self._tools:  # surface-mesh tools: pair nodes with facets again
+            tool.nodal.repair()
 
     def solve(self) -> StepResult:
         """Integrate in time until the load parameter reaches the interval's end."""
@@ -418,6 +420,7 @@ class ExplicitSolver:
                "loading_time_s": self.options.loading_time,
                "assembly_s": self.comm.allreduce(self.assembly_seconds) / self.comm.size,
                "integration_s": self.integration_seconds, "elements": n_el}
+        out |= self.model.search_timing()
         if self.time_steps:
             out["us_per_element_increment"] = (1e6 * self.integration_seconds
                                                / (self.time_steps * n_el))

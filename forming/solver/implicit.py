@@ -113,6 +113,7 @@ class ImplicitSolver:
             return str(exc)
         finally:
             self._kernel_s += time.perf_counter() - t0
+        self.model.track()
         return None
 
     def _residual(self, snes, x, b) -> None:
@@ -352,7 +353,8 @@ class ImplicitSolver:
                 "assembly_s": split["assembly_s"],
                 "newton_split_s": split,
                 "per_iteration_ms": {k.removesuffix("_s"): 1e3 * v / its
-                                     for k, v in split.items()}}
+                                     for k, v in split.items()},
+                **self.model.search_timing()}
 
     def parameters(self) -> dict:
         """Nothing beyond the case's parameters."""
