@@ -6,10 +6,10 @@ closest point ``c`` and the outward normal ``n`` held in P1 fields that
 :class:`ClosestPoints` refreshes from the current configuration before every residual
 and Jacobian. ``g`` is then the exact signed distance of the current iterate, and its
 derivative with ``c`` and ``n`` held is the exact one, ``n``. The traction's direction
-is written ``n + K (p - a)`` with ``a`` the point the query was made at (so it equals
-``n`` at the iterate) and ``K = dn/dx`` from the query: zero inside a triangle, the
-rotation of the normal round an edge or a vertex of the triangulation. So the Jacobian
-is the exact derivative of the residual everywhere (docs/theory.md, section 9).
+is written ``m + K (p - a)`` with ``a`` the point the query was made at (so it equals
+the smoothed normal ``m`` at the iterate) and ``K = dm/dx`` from the query
+(:mod:`forming.contact.closest`). So the Jacobian is the exact derivative of the
+residual everywhere (docs/theory.md, section 9).
 """
 
 from __future__ import annotations
@@ -35,6 +35,7 @@ class ClosestPoints:
         Wv = fem.functionspace(body.mesh, ("Lagrange", 1, (3,)))
         self.closest = fem.Function(Wv, name="closest_point")
         self.normal = fem.Function(Wv, name="tool_normal")
+        self.direction_at = fem.Function(Wv, name="traction_direction")
         self.anchor = fem.Function(Wv, name="query_point")
         Wt = fem.functionspace(body.mesh, ("Lagrange", 1, (3, 3)))
         self.rotation = fem.Function(Wt, name="normal_derivative")
@@ -63,12 +64,13 @@ class ClosestPoints:
         if np.array_equal(points, self._last):
             return
         self._last = points
-        _d, n, c, k = self._tracker.query(points)
-        self.closest.x.array.reshape(-1, 3)[self._blocks] = c
-        self.normal.x.array.reshape(-1, 3)[self._blocks] = n
+        q = self._tracker.query(points)
+        self.closest.x.array.reshape(-1, 3)[self._blocks] = q.point
+        self.normal.x.array.reshape(-1, 3)[self._blocks] = q.normal
+        self.direction_at.x.array.reshape(-1, 3)[self._blocks] = q.direction
         self.anchor.x.array.reshape(-1, 3)[self._blocks] = points
-        self.rotation.x.array.reshape(-1, 9)[self._blocks] = k.reshape(-1, 9)
+        self.rotation.x.array.reshape(-1, 9)[self._blocks] = q.rotation.reshape(-1, 9)
 
     def direction(self, p):
-        """The traction's direction at the UFL point ``p``: ``n + K (p - a)``."""
-        return self.normal + ufl.dot(self.rotation, p - self.anchor)
+        """The traction's direction at the UFL point ``p``: ``m + K (p - a)``."""
+        return self.direction_at + ufl.dot(self.rotation, p - self.anchor)
