@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import logging
 import time
+import weakref
 
 import numpy as np
 from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_residual, assign
@@ -23,6 +24,16 @@ log = logging.getLogger(__name__)
 _ids = itertools.count()
 
 _REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
+
+
+def _weak(method):
+    """A function calling ``method`` through a weak reference to its object."""
+    ref = weakref.WeakMethod(method)
+
+    def call(*args):
+        return ref()(*args)
+
+    return call
 
 
 class ImplicitSolver:
@@ -65,18 +76,23 @@ class ImplicitSolver:
                 entity_maps=model.entity_maps or None, jit_options=compat.SOLVE_JIT_OPTIONS,
             )
         snes = self.problem.solver
+        if model.sliding:  # entries between bodies that the forms' sparsity does not have
+            self.problem.A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         self._fctx = {"u": self._u, "residual": self.problem.F, "jacobian": self.problem.J,
                       "bcs": bcs}
         if (blocks := self.problem.b.getAttr("_blocks")) is not None:
             self._fctx["_blocks"] = blocks
         self._jctx = {"u": self._u, "jacobian": self.problem.J, "preconditioner": None,
                       "bcs": bcs}
-        snes.setFunction(self._residual, self.problem.b)
-        snes.setJacobian(self._jacobian, self.problem.A, None)
-        snes.setMonitor(self._monitor)
+        # SNES keeps its callbacks where Python's garbage collector does not look: bound
+        # methods would tie the solver (and its model, forms, functions and their MPI
+        # communicators) into a cycle that is never freed
+        snes.setFunction(_weak(self._residual), self.problem.b)
+        snes.setJacobian(_weak(self._jacobian), self.problem.A, None)
+        snes.setMonitor(_weak(self._monitor))
         self._one_loop = self.options.multipliers == "newton" and bool(model.constraints)
         if self._one_loop:
-            snes.setConvergenceTest(self._converged)
+            snes.setConvergenceTest(_weak(self._converged))
         self._fnorm0 = 0.0
         self._updates = 0
         linear.configure(self.problem.A, [b.V for b in bodies], self.options)
@@ -128,6 +144,7 @@ class ImplicitSolver:
             b.set(np.nan)
             return
         assemble_residual(snes, x, b, **self._fctx)
+        self.model.add_residual(b)
         self.assembly_seconds += time.perf_counter() - t0
 
     def _jacobian(self, snes, x, A, P) -> None:
@@ -136,6 +153,7 @@ class ImplicitSolver:
         if failure:
             self._failure = failure
         assemble_jacobian(snes, x, A, P, **self._jctx)
+        self.model.add_jacobian(A)
         self.assembly_seconds += time.perf_counter() - t0
 
     def _monitor(self, snes, its, norm) -> None:
