@@ -24,6 +24,9 @@ skin's shear range, the area beyond the wrinkling angles (+42 / -50 deg) and the
 ``--set tools=stl`` (or ``step``): the same tools as surface meshes, built with
 OpenCASCADE and written under ``meshes/generated/tools`` on first use; ``tool_angle``
 sets their tessellation (docs/validation.md, tools from surface meshes).
+``--set skin_contact=finite``: the skins meshed apart from the core
+(``skin_refinement`` elements per core element) and sliding on it any distance (node to
+surface, docs/theory.md section 11) instead of the node-to-node small-sliding pairing.
 Run: ``python cases/hemisphere.py --set blank_holder=true`` (add ``skins=true``).
 """
 
@@ -80,6 +83,8 @@ class Params:
     skin_smoothing: float = 0.0  # smoothed interface pressure ramp (fraction)
     tool_stick: Literal["auto", "augmented", "elastic_slip"] = "auto"  # tool stick law
     tool_penalty: float | None = None  # tool contact penalty [N/mm^3]; none: 10 C_max / h
+    skin_contact: Literal["small", "finite"] = "small"  # skins on the core: small or finite sliding
+    skin_refinement: int = 1  # finite sliding: skin elements per core element in plane
     tools: Literal["analytic", "stl", "step"] = "analytic"  # tools: formulas or surface meshes
     tool_angle: float = 5.0  # surface-mesh tools: largest angle per triangle on curved faces [deg]
     tool_max_size: float = 25.0  # surface-mesh tools: largest triangle on flat faces [mm]
@@ -117,7 +122,8 @@ def build(p: Params) -> Job:
                          f"{p.die_diameter:g} mm die opening")
     half, R = p.size / 2, p.punch_diameter / 2
     skins = Skins(NonCrimpFabric(thickness=p.skin_thickness), p.plies, p.skin_friction,
-                  p.skin_stabilisation, p.skin_smoothing) if p.skins else None
+                  p.skin_stabilisation, p.skin_smoothing, p.skin_contact,
+                  p.skin_refinement) if p.skins else None
     b = rectangular_blank(half, half, p.thickness, p.cells, honeycomb_core(
         p.elasticity, curve=p.curve, viscosity=p.viscosity), skins, p.grading)
     # nodes at zero pressure (fabric on tools, a transverse core's flange): elastic-slip
@@ -130,7 +136,8 @@ def build(p: Params) -> Job:
     if p.tool_penalty is not None:
         contacts = tuple(replace(c, penalty=p.tool_penalty) for c in contacts)
     scene = Scene(name="hemisphere", mesh=b.mesh, bodies=b.bodies, displacements=b.symmetry(),
-                  tools=tools, contacts=contacts, interfaces=b.interfaces, symmetry_copies=4)
+                  tools=tools, contacts=contacts, interfaces=b.interfaces, sliding=b.sliding,
+                  symmetry_copies=4)
     title = "Hemisphere" + (" + holder" if p.blank_holder else "")
 
     def metrics(rec, model) -> dict:
@@ -139,7 +146,8 @@ def build(p: Params) -> Job:
             if p.skins else {})
 
     def pictures(model, out: Path) -> list[Path]:
-        section = "core_edge_ymin" if p.skins else "ymin"
+        section = b.face("core", "ymin") if b.prefixed else (
+            "core_edge_ymin" if p.skins else "ymin")
         pngs = post.plastic_strain_pictures(model, out, section, title, tools_3d=("punch",))
         if p.skins:
             pngs += post.shear_angle_picture(model, out, f"{title}: top skin shear angle [deg]",

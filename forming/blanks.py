@@ -8,11 +8,12 @@ so that a case builds its tooling around it without knowing which kind it is.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from forming.errors import InputError
 from forming.materials.fabric import NonCrimpFabric
-from forming.mesh import MeshData, box
-from forming.scene import Body, Displacement, Interface
+from forming.mesh import Block, MeshData, blocks, box
+from forming.scene import Body, Displacement, Interface, Sliding
 
 SKINS = ("skin_bottom", "skin_top")
 
@@ -29,6 +30,9 @@ class Blank:
         bottom: z of its bottom face [mm].
         upper: Body whose ``top`` face the upper tools touch.
         lower: Body whose ``bottom`` face the lower tools touch.
+        sliding: Finite-sliding skin-core contacts (skins meshed apart from the core).
+        prefixed: The mesh names each body's faces ``<body>_<face>``
+            (:func:`forming.mesh.blocks`), not once for the whole blank.
     """
 
     mesh: MeshData
@@ -38,6 +42,12 @@ class Blank:
     bottom: float
     upper: str
     lower: str
+    sliding: tuple[Sliding, ...] = ()
+    prefixed: bool = False
+
+    def face(self, body: str, name: str) -> str:
+        """The surface group of ``body``'s face ``name`` (``top``, ``xmin``, ...)."""
+        return f"{body}_{name}" if self.prefixed else name
 
     @property
     def skins(self) -> tuple[str, ...]:
@@ -47,7 +57,8 @@ class Blank:
     def symmetry(self, planes: tuple[tuple[str, str], ...] = (("xmin", "x"), ("ymin", "y"))
                  ) -> tuple[Displacement, ...]:
         """Symmetry conditions of every body on the planes ``(face, normal component)``."""
-        return tuple(Displacement(b.name, face, **{axis: 0.0}, reaction=False)
+        return tuple(Displacement(b.name, self.face(b.name, face), **{axis: 0.0},
+                                  reaction=False)
                      for b in self.bodies for face, axis in planes)
 
 
@@ -90,6 +101,11 @@ class Skins:
         friction: Skin-core Coulomb coefficient (paper: 0.52).
         stabilisation: Interface stabilisation (fraction of the penalty).
         smoothing: Smoothed interface pressure ramp (fraction).
+        contact: ``"small"``: one conforming mesh, skin and core nodes paired as meshed
+            (small sliding); ``"finite"``: the skins meshed apart and sliding any
+            distance on the core (node to surface, :mod:`forming.contact.sliding`).
+        refinement: With finite sliding, skin elements per core element along each
+            in-plane direction.
     """
 
     fabric: NonCrimpFabric
@@ -97,6 +113,16 @@ class Skins:
     friction: float = 0.52
     stabilisation: float = 0.0
     smoothing: float = 0.0
+    contact: Literal["small", "finite"] = "small"
+    refinement: int = 1
+
+    def __post_init__(self) -> None:
+        if self.contact not in ("small", "finite"):
+            raise InputError("skin_contact", f"must be 'small' or 'finite', got "
+                             f"{self.contact!r}")
+        if int(self.refinement) != self.refinement or self.refinement < 1:
+            raise InputError("skin_refinement", f"must be an integer >= 1, got "
+                             f"{self.refinement!r}")
 
 
 def rectangular_blank(half_x: float, half_y: float, thickness: float, cells: tuple[int, ...],
@@ -118,6 +144,8 @@ def rectangular_blank(half_x: float, half_y: float, thickness: float, cells: tup
     if skins is None:
         mesh = box((half_x, half_y, thickness), tuple(cells), grading=(grading, grading, 1.0))
         return core_blank(mesh, core, thickness)
+    if skins.contact == "finite":
+        return _sliding_sandwich(half_x, half_y, thickness, cells, core, skins)
     element = half_x / cells[0]
     if round(half_y / element) != cells[1]:
         raise InputError("cells", f"with skins the in-plane mesh is square: got {cells}")
@@ -128,3 +156,25 @@ def rectangular_blank(half_x: float, half_y: float, thickness: float, cells: tup
                           element_size=element, core_layers=cells[2])
     return sandwich(mesh, core, skins.fabric, thickness, skins.plies, friction=skins.friction,
                     stabilisation=skins.stabilisation, smoothing=skins.smoothing)
+
+
+def _sliding_sandwich(half_x: float, half_y: float, thickness: float, cells, core,
+                      skins: Skins) -> Blank:
+    """Core and skins as separate blocks (no shared nodes), the skins sliding on the core."""
+    t = skins.plies * skins.fabric.thickness
+    r = int(skins.refinement)
+    nx, ny, nz = (int(c) for c in cells)
+    mesh = blocks([
+        Block("skin_bottom", (half_x, half_y, t), (r * nx, r * ny, skins.plies)),
+        Block("core", (half_x, half_y, thickness), (nx, ny, nz), origin=(0.0, 0.0, t)),
+        Block("skin_top", (half_x, half_y, t), (r * nx, r * ny, skins.plies),
+              origin=(0.0, 0.0, t + thickness)),
+    ])
+    bodies = (Body("core", core, region="core"),
+              *(Body(s, skins.fabric, region=s) for s in SKINS))
+    sliding = (Sliding("bottom", "core", "core_bottom", "skin_bottom", "skin_bottom_top",
+                       friction=skins.friction),
+               Sliding("top", "core", "core_top", "skin_top", "skin_top_bottom",
+                       friction=skins.friction))
+    return Blank(mesh, bodies, (), thickness + 2 * t, 0.0, "skin_top", "skin_bottom",
+                 sliding=sliding, prefixed=True)

@@ -66,6 +66,80 @@ def mesh_from_gmsh(gmsh, comm) -> MeshData:
     return MeshData(data.mesh, data.cell_tags, data.facet_tags, names)
 
 
+_FACES = {"xmin": (0, 0), "xmax": (0, 1), "ymin": (1, 0), "ymax": (1, 1),
+          "bottom": (2, 0), "top": (2, 1)}
+
+
+@dataclass(frozen=True)
+class Block:
+    """A structured hexahedral block of a mesh (see :func:`box` and :func:`blocks`).
+
+    Attributes:
+        name: Name of its volume group.
+        size: Edge lengths (x, y, z) [mm], all positive.
+        cells: Number of hexahedra along x, y, z, all >= 1.
+        origin: Corner with the smallest coordinates.
+        grading: Per-axis ratio of consecutive cell sizes along +x, +y, +z (1: uniform;
+            > 1 refines towards the low side, < 1 towards the high side).
+    """
+
+    name: str
+    size: tuple[float, float, float]
+    cells: tuple[int, int, int]
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    grading: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        if len(self.size) != 3 or any(not np.isfinite(s) or s <= 0 for s in self.size):
+            raise InputError("mesh.size", f"edge lengths must be three positive numbers, "
+                             f"got {self.size}")
+        if len(self.cells) != 3 or any(int(n) != n or n < 1 for n in self.cells):
+            raise InputError("mesh.cells", f"cell counts must be three integers >= 1, got "
+                             f"{self.cells}")
+        if len(self.grading) != 3 or any(not np.isfinite(g) or g <= 0 for g in self.grading):
+            raise InputError("mesh.grading", f"must be three positive ratios, got "
+                             f"{self.grading}")
+
+
+def _add_block(gmsh, block: Block) -> tuple[int, dict[str, list[int]]]:
+    """Add a transfinite box to the gmsh model; its volume tag and its faces' tags."""
+    vol = gmsh.model.occ.addBox(*block.origin, *block.size)
+    gmsh.model.occ.synchronize()
+    _up, surfaces = gmsh.model.getAdjacencies(3, vol)
+    for surf in surfaces:
+        for curve in gmsh.model.getAdjacencies(2, surf)[1]:
+            lo = gmsh.model.getBoundingBox(1, curve)
+            axis = int(np.argmax(np.abs(np.array(lo[3:]) - np.array(lo[:3]))))
+            lo_t, hi_t = gmsh.model.getParametrizationBounds(1, curve)
+            x0 = gmsh.model.getValue(1, curve, [lo_t[0]])[axis]
+            x1 = gmsh.model.getValue(1, curve, [hi_t[0]])[axis]
+            g = block.grading[axis]
+            gmsh.model.mesh.setTransfiniteCurve(curve, int(block.cells[axis]) + 1,
+                                                "Progression", g if x1 > x0 else 1.0 / g)
+        gmsh.model.mesh.setTransfiniteSurface(surf)
+        gmsh.model.mesh.setRecombine(2, surf)
+    gmsh.model.mesh.setTransfiniteVolume(vol)
+    faces = {}
+    for fname, (axis, side) in _FACES.items():
+        coord = block.origin[axis] + side * block.size[axis]
+        faces[fname] = [s for s in surfaces if abs(gmsh.model.occ.getCenterOfMass(2, s)[axis]
+                                                   - coord) < 1e-9 * max(block.size)]
+    return vol, faces
+
+
+def blocks(parts: list[Block], comm: MPI.Comm = MPI.COMM_WORLD) -> MeshData:
+    """Disjoint structured blocks in one mesh, each meshed on its own.
+
+    Blocks that touch share no nodes (their meshes need not match): two bodies in
+    contact with finite sliding, such as a fabric layer on a core. Groups: each block's
+    volume by its name and its faces as ``<name>_<face>`` (faces ``xmin, xmax, ymin,
+    ymax, bottom, top``).
+    """
+    if len({b.name for b in parts}) != len(parts):
+        raise InputError("mesh.blocks", "block names must be distinct")
+    return _generate(parts, comm, prefix=True)
+
+
 def box(
     size: tuple[float, float, float],
     cells: tuple[int, int, int],
@@ -85,49 +159,27 @@ def box(
         grading: Per-axis ratio of consecutive cell sizes along +x, +y, +z (1: uniform;
             > 1 refines towards the low side, < 1 towards the high side).
     """
-    if len(size) != 3 or any(not np.isfinite(s) or s <= 0 for s in size):
-        raise InputError("mesh.size", f"edge lengths must be three positive numbers, got {size}")
-    if len(cells) != 3 or any(int(n) != n or n < 1 for n in cells):
-        raise InputError("mesh.cells", f"cell counts must be three integers >= 1, got {cells}")
-    if len(grading) != 3 or any(not np.isfinite(g) or g <= 0 for g in grading):
-        raise InputError("mesh.grading", f"must be three positive ratios, got {grading}")
+    return _generate([Block(name, size, cells, origin, grading)], comm, prefix=False)
+
+
+def _generate(parts: list[Block], comm: MPI.Comm, prefix: bool) -> MeshData:
     import gmsh
 
     initialised = gmsh.isInitialized()
     if not initialised:
         gmsh.initialize(interruptible=False)
     gmsh.option.setNumber("General.Terminal", 0)
-    gmsh.model.add(f"box_{name}")
+    gmsh.model.add("_".join(b.name for b in parts))
     try:
         if comm.rank == 0:
-            occ = gmsh.model.occ
-            vol = occ.addBox(*origin, *size)
-            occ.synchronize()
-            for curve in gmsh.model.getEntities(1):
-                lo = gmsh.model.getBoundingBox(*curve)
-                ext = np.abs(np.array(lo[3:]) - np.array(lo[:3]))
-                axis = int(np.argmax(ext))
-                lo_t, hi_t = gmsh.model.getParametrizationBounds(1, curve[1])
-                x0 = gmsh.model.getValue(1, curve[1], [lo_t[0]])[axis]
-                x1 = gmsh.model.getValue(1, curve[1], [hi_t[0]])[axis]
-                coef = grading[axis] if x1 > x0 else 1.0 / grading[axis]
-                gmsh.model.mesh.setTransfiniteCurve(curve[1], int(cells[axis]) + 1,
-                                                    "Progression", coef)
-            for surf in gmsh.model.getEntities(2):
-                gmsh.model.mesh.setTransfiniteSurface(surf[1])
-                gmsh.model.mesh.setRecombine(2, surf[1])
-            gmsh.model.mesh.setTransfiniteVolume(vol)
-            gmsh.model.addPhysicalGroup(3, [vol], 1, name=name)
-            faces = {"xmin": (0, 0), "xmax": (0, 1), "ymin": (1, 0), "ymax": (1, 1),
-                     "bottom": (2, 0), "top": (2, 1)}
-            for tag, (fname, (axis, side)) in enumerate(faces.items(), start=1):
-                coord = origin[axis] + side * size[axis]
-                ents = []
-                for _d, s in gmsh.model.getEntities(2):
-                    c = gmsh.model.occ.getCenterOfMass(2, s)
-                    if abs(c[axis] - coord) < 1e-9 * max(size):
-                        ents.append(s)
-                gmsh.model.addPhysicalGroup(2, ents, tag, name=fname)
+            tag = 1
+            for i, block in enumerate(parts, start=1):
+                vol, faces = _add_block(gmsh, block)
+                gmsh.model.addPhysicalGroup(3, [vol], i, name=block.name)
+                for fname, ents in faces.items():
+                    gmsh.model.addPhysicalGroup(
+                        2, ents, tag, name=f"{block.name}_{fname}" if prefix else fname)
+                    tag += 1
             gmsh.model.mesh.generate(3)
         return mesh_from_gmsh(gmsh, comm)
     finally:

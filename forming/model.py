@@ -22,6 +22,7 @@ from forming.bodies import DeformableBody, make_body
 from forming.contact.base import Constraint
 from forming.domain import BodyDomain
 from forming.history import ForceSampler, reaction_column, reaction_key
+from forming.layout import Layout
 from forming.scene import AffineDisplacement, Displacement, Scene
 
 log = logging.getLogger(__name__)
@@ -130,6 +131,7 @@ class Model:
 
     def __init__(self, scene: Scene):
         from forming.contact.interface import InterfaceTerm, interface_entities
+        from forming.contact.sliding import SlidingTerm
         from forming.contact.terms import ContactTerm
 
         self.scene = scene
@@ -166,6 +168,16 @@ class Model:
         tests = self.test_functions()
         self.dirichlet = DirichletSet(
             scene, self.bodies, lambda name, w: self._residual_terms(tests | {name: w})[name])
+        # constraints assembled outside the forms add by global index (no reaction forms:
+        # a prescribed face should not carry a sliding surface)
+        self.layout = Layout(self.bodies, self.comm)
+        self.layout.set_prescribed(self.dirichlet.bcs, self.dirichlet.bc_bodies)
+        self.sliding = [
+            SlidingTerm(sl, self.bodies[sl.master], self.bodies[sl.slave], self.layout,
+                        min(thickness[sl.master], thickness[sl.slave]))
+            for sl in scene.sliding
+        ]
+        self.constraints += self.sliding
 
     @property
     def t(self) -> float:
@@ -249,7 +261,7 @@ class Model:
             add(name, name, tangent(trials[name], tests[name]))
         for c in self.constraints:
             r = c.residuals(tests)
-            for i in c.bodies:
+            for i in r:  # (a constraint assembled outside the forms has none)
                 for j in c.bodies:
                     add(i, j, ufl.derivative(r[i], self.bodies[j].u, trials[j]))
         return [[blocks.get((i, j)) for j in self.names] for i in self.names]
@@ -277,6 +289,16 @@ class Model:
             return {}
         local = sum(s.search_seconds for s in shapes)
         return {"contact_search_s": self.comm.allreduce(local) / self.comm.size}
+
+    def add_residual(self, b) -> None:
+        """Add the constraints assembled outside the forms to a residual vector."""
+        for c in self.sliding:
+            c.add_residual(b)
+
+    def add_jacobian(self, A) -> None:
+        """Add the constraints assembled outside the forms to a Jacobian matrix."""
+        for c in self.sliding:
+            c.add_jacobian(A)
 
     def track(self) -> None:
         """Every constraint follows the current configuration (before each assembly)."""
@@ -341,6 +363,8 @@ class Model:
         merge(row, penetration_column(self.contacts), "model", owners)
         for itf in self.interfaces:
             merge(row, itf.history_columns(forces), f"interface {itf.name}", owners)
+        for sl in self.sliding:
+            merge(row, sl.history_columns(forces), f"sliding {sl.name}", owners)
         return row
 
     def warnings(self) -> list[str]:

@@ -300,6 +300,49 @@ class Interface:
 
 
 @dataclass(frozen=True)
+class Sliding:
+    """Finite-sliding contact between two bodies meshed apart (non-matching surfaces).
+
+    The slave region's nodes meet the master region's facets wherever they slide to
+    (:mod:`forming.contact.sliding`); friction is Coulomb with elastic slip (0.5% of the
+    shortest facet edge).
+
+    Attributes:
+        name: Name used in history columns (``sliding_<name>_x_N``).
+        master: The body whose facets carry the normal (a core).
+        master_region: Its surface group.
+        slave: The body whose nodes are constrained (a skin).
+        slave_region: Its surface group.
+        friction: Coulomb coefficient (0: frictionless).
+        penalty: Augmented-Lagrangian penalty [N/mm^3]; default 10 E / h from the master's
+            largest elastic stiffness and the shortest facet edge of either side.
+        tolerance: Admissible penetration [mm]; default 1% of that edge or of the thinner
+            body.
+    """
+
+    name: str
+    master: str
+    master_region: str
+    slave: str
+    slave_region: str
+    friction: float = 0.0
+    penalty: float | None = None
+    tolerance: float | None = None
+
+    def __post_init__(self) -> None:
+        if not self.name.isidentifier():
+            raise InputError("sliding.name", f"must be an identifier, got {self.name!r}")
+        if self.master == self.slave:
+            raise InputError("sliding.slave", f"must differ from master {self.master!r}")
+        if not (math.isfinite(self.friction) and self.friction >= 0):
+            raise InputError("sliding.friction", f"must be >= 0, got {self.friction!r}")
+        for name in ("penalty", "tolerance"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise InputError(f"sliding.{name}", f"must be positive, got {v!r}")
+
+
+@dataclass(frozen=True)
 class Scene:
     """Everything a solver needs to know about what is simulated.
 
@@ -312,6 +355,7 @@ class Scene:
         tools: Rigid tools.
         contacts: Contact pairs between body surfaces and tools.
         interfaces: Contact between bodies over their shared facets.
+        sliding: Finite-sliding contact between bodies meshed apart.
         quadrature_degree: Quadrature degree of the bulk integrals (None: 2 for
             degree-1 bodies, 4 for degree 2, see ``docs/theory.md``).
         symmetry_copies: How many copies of the modelled part make the whole part (4
@@ -331,6 +375,7 @@ class Scene:
     tools: tuple[Tool, ...] = ()
     contacts: tuple[Contact, ...] = ()
     interfaces: tuple[Interface, ...] = ()
+    sliding: tuple[Sliding, ...] = ()
     quadrature_degree: int | None = None
     symmetry_copies: int = 1
     travel: float | None = None
@@ -373,6 +418,12 @@ class Scene:
                 if who not in names:
                     raise InputError("interface.body", f"unknown body {who!r}; bodies: {names}")
             self.mesh.facet_tag_ids(itf.region)
+        for sl in self.sliding:
+            for who in (sl.master, sl.slave):
+                if who not in names:
+                    raise InputError("sliding.master", f"unknown body {who!r}; bodies: {names}")
+            self.mesh.facet_tag_ids(sl.master_region)
+            self.mesh.facet_tag_ids(sl.slave_region)
         for d in self.displacements:
             if d.body not in names:
                 raise InputError("displacement.body", f"unknown body {d.body!r}; bodies: {names}")

@@ -79,9 +79,10 @@ def hemisphere_tools(blank: Blank, punch_diameter: float = 100.0, die_diameter: 
             HemisphereToolSet(punch_diameter / 2, PUNCH_LENGTH, hole, edge_radius, plate),
             source, tessellation or Tessellation(), blank.top, blank.bottom)
     tools = [Tool("punch", shapes["punch"], z=Linear(-stroke)), Tool("die", shapes["die"])]
-    contacts = [Contact(blank.upper, "top", "punch", friction=friction, stick=stick),
-                Contact(blank.lower, "bottom", "die", friction=friction, stick=stick)]
+    top, bottom = blank.face(blank.upper, "top"), blank.face(blank.lower, "bottom")
+    contacts = [Contact(blank.upper, top, "punch", friction=friction, stick=stick),
+                Contact(blank.lower, bottom, "die", friction=friction, stick=stick)]
     if holder:
         tools.append(Tool("holder", shapes["holder"]))
-        contacts.append(Contact(blank.upper, "top", "holder", friction=friction, stick=stick))
+        contacts.append(Contact(blank.upper, top, "holder", friction=friction, stick=stick))
     return tuple(tools), tuple(contacts)

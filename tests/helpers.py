@@ -118,12 +118,15 @@ def block_vector(model: Model, fields: dict[str, Callable[[np.ndarray], np.ndarr
     return x
 
 
-def solver_taylor(solver, model: Model, seed: int = 0, base: np.ndarray | None = None):
+def solver_taylor(solver, model: Model, seed: int = 0, base: np.ndarray | None = None,
+                  keep_prescribed: bool = False):
     """Taylor slopes of an implicit solver's own residual and Jacobian (all blocks).
 
     At ``base`` (default zero) plus random free displacements of 1e-3 mm; prescribed
-    dofs stay at their (zero) values, where the lifted residual is the true residual.
-    The model is left at that state, so a caller can read its outputs there.
+    dofs stay at zero, where the lifted residual is the true residual, or with
+    ``keep_prescribed`` at their values in ``base`` (which must then be the prescribed
+    values of the current load). The model is left at that state, so a caller can read
+    its outputs there.
     """
     x, b = solver.unknowns(), solver.unknowns()
     n = x.getLocalSize()
@@ -132,7 +135,7 @@ def solver_taylor(solver, model: Model, seed: int = 0, base: np.ndarray | None =
     x0 = rng.normal(size=n) * 1e-3
     if base is not None:
         x0 = x0 + base
-    x0 = x0 * free
+    x0 = x0 * free + (base * (1 - free) if keep_prescribed else 0.0)
 
     def residual(xa):
         x.array[:] = xa

@@ -134,6 +134,7 @@ def interface_slips(model) -> dict[str, float]:
     """Largest skin-core slip of each interface (by its second body) and overall [mm]."""
     slips = {f"skin_core_slip_max_mm_{itf.spec.other}": itf.max_slip()
              for itf in model.interfaces}
+    slips |= {f"skin_core_slip_max_mm_{sl.spec.slave}": sl.max_slip() for sl in model.sliding}
     return {"skin_core_slip_max_mm": max(slips.values())} | slips
 
 
