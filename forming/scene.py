@@ -197,6 +197,14 @@ class Tool:
         return out
 
 
+def _positive_if_given(spec, prefix: str, names: tuple[str, ...]) -> None:
+    """Refuse a given (not None) setting that is not a positive number."""
+    for name in names:
+        v = getattr(spec, name)
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise InputError(f"{prefix}.{name}", f"must be positive, got {v!r}")
+
+
 @dataclass(frozen=True)
 class Contact:
     """Frictional contact between a surface region of a body and a tool.
@@ -232,10 +240,7 @@ class Contact:
         if self.stick not in ("augmented", "elastic_slip"):
             raise InputError("contact.stick", f"must be 'augmented' or 'elastic_slip', "
                              f"got {self.stick!r}")
-        for name in ("penalty", "tolerance"):
-            v = getattr(self, name)
-            if v is not None and not (math.isfinite(v) and v > 0):
-                raise InputError(f"contact.{name}", f"must be positive, got {v!r}")
+        _positive_if_given(self, "contact", ("penalty", "tolerance"))
 
 
 @dataclass(frozen=True)
@@ -293,10 +298,7 @@ class Interface:
             raise InputError("interface.friction", f"must be >= 0, got {self.friction!r}")
         if not (math.isfinite(self.smoothing) and self.smoothing >= 0):
             raise InputError("interface.smoothing", f"must be >= 0, got {self.smoothing!r}")
-        for name in ("penalty", "tolerance", "slip_warning"):
-            v = getattr(self, name)
-            if v is not None and not (math.isfinite(v) and v > 0):
-                raise InputError(f"interface.{name}", f"must be positive, got {v!r}")
+        _positive_if_given(self, "interface", ("penalty", "tolerance", "slip_warning"))
 
 
 @dataclass(frozen=True)
@@ -336,10 +338,7 @@ class Sliding:
             raise InputError("sliding.slave", f"must differ from master {self.master!r}")
         if not (math.isfinite(self.friction) and self.friction >= 0):
             raise InputError("sliding.friction", f"must be >= 0, got {self.friction!r}")
-        for name in ("penalty", "tolerance"):
-            v = getattr(self, name)
-            if v is not None and not (math.isfinite(v) and v > 0):
-                raise InputError(f"sliding.{name}", f"must be positive, got {v!r}")
+        _positive_if_given(self, "sliding", ("penalty", "tolerance"))
 
 
 @dataclass(frozen=True)
