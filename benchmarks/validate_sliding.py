@@ -5,11 +5,14 @@ lengths) over a core (200 x 50 x 10 mm, 12.5 mm elements), meshes not matching
 (cases/sliding_sled.py), with load steps of at most 0.05 and 0.02: the drag over the
 normal force once sliding, the normal force, the largest penetration and the cost.
 
-Then ``hemisphere`` with skins and blank holder, small against finite sliding, on the
-8 x 8 x 2 and 12 x 12 x 3 quarter meshes.
+Then the contact patch test (cases/contact_patch.py) on four pairs of non-matching meshes
+and ironing (cases/ironing.py) on its default mesh, each with the slave's force passed
+to the master over its tributary area (``transfer=area``) and at its closest point
+(``transfer=point``); and ``hemisphere`` with skins and blank holder, small against
+finite sliding, on the 8 x 8 x 2 and 12 x 12 x 3 quarter meshes.
 
-Run: ``python benchmarks/validate_sliding.py`` (about 10 minutes; ``--only sled`` or
-``--only hemisphere`` for one part).
+Run: ``python benchmarks/validate_sliding.py`` (about 15 minutes; ``--only sled``,
+``--only patch``, ``--only ironing`` or ``--only hemisphere`` for one part).
 """
 
 from __future__ import annotations
@@ -85,12 +88,66 @@ def sled() -> list[str]:
                     "its top moves); the step is cut and retried."]
 
 
+def patch() -> list[str]:
+    """The contact patch test on non-matching meshes, both transfers."""
+    lines = ["## Finite sliding: the contact patch test", "",
+             f"`python benchmarks/validate_sliding.py --only patch` on {machine()}: "
+             "`cases/contact_patch.py`, two 40 x 40 x 10 mm blocks of one elastic material "
+             "on rollers, 1 MPa on the top, frictionless finite sliding with the upper "
+             "block's bottom as the slave side. Exact: a uniform contact pressure of 1 MPa. "
+             "Largest `|p / 1 MPa - 1|` over the slave nodes:", "",
+             "| lower (master) elements | upper (slave) elements | transfer=area | "
+             "transfer=point |", "|---|---|---|---|"]
+    with tempfile.TemporaryDirectory() as tmp:
+        for lower, upper in ((4, 5), (3, 7), (5, 4), (7, 3)):
+            row = []
+            for transfer in ("area", "point"):
+                s = run_case("contact_patch", Path(tmp) / f"p{lower}{upper}{transfer}",
+                             [f"lower_cells={lower}", f"upper_cells={upper}",
+                              f"transfer={transfer}"])
+                row.append(f"{100 * s['metrics']['pressure_deviation_max']:.2f}%")
+            lines.append(f"| {lower} x {lower} | {upper} x {upper} | {row[0]} | {row[1]} |")
+    return lines + ["", "The area transfer passes to the accuracy of its 4 x 4 Gauss points "
+                    "per slave facet; it is best with the finer mesh as the slave side (a "
+                    "coarse slave facet spans several master kinks)."]
+
+
+def ironing() -> list[str]:
+    """Ironing on the default mesh, both transfers."""
+    lines = ["## Finite sliding: ironing", "",
+             f"`python benchmarks/validate_sliding.py --only ironing` on {machine()}: "
+             "`cases/ironing.py`, plane strain: a die with a 60 mm radius face (40 mm wide, "
+             "24 elements, E = 10 GPa) pressed 2 mm into a soft block (120 x 30 mm, 2.5 mm "
+             "elements, E = 10 MPa), then slid 40 mm (16 block elements), friction 0.3. Over "
+             "the steady slide (the last 75%): tangential over normal force on the die, and "
+             "the largest departure of each force from a straight line over its mean:", "",
+             "| transfer | ratio mean | ratio min, max | normal ripple | tangential ripple "
+             "| largest penetration [mm] | Newton iterations | wall [s] |",
+             "|---|---|---|---|---|---|---|---|"]
+    with tempfile.TemporaryDirectory() as tmp:
+        for transfer in ("area", "point"):
+            s = run_case("ironing", Path(tmp) / transfer, [f"transfer={transfer}"])
+            m, tm = s["metrics"], s["timing"]
+            lines.append(f"| {transfer} | {m['friction_ratio_mean']:.4f} "
+                         f"| {m['friction_ratio_min']:.4f}, {m['friction_ratio_max']:.4f} "
+                         f"| {100 * m['normal_oscillation']:.2f}% "
+                         f"| {100 * m['tangential_oscillation']:.2f}% "
+                         f"| {m['penetration_max_mm']:.4f} | {tm['newton_iterations']} "
+                         f"| {tm['wall_s']:.1f} |")
+    return lines + ["", "The ratio sits 1.5% below 0.3 with either transfer: the die's face "
+                    "is curved, so the contact normals tilt (up to 15 deg here) and friction, "
+                    "acting along the tilted surface, lifts the rear half of the die. "
+                    "The targets (ripple below 5%, ratio within 2%) hold."]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--only", choices=("sled", "hemisphere"))
+    parser.add_argument("--only", choices=("sled", "patch", "ironing", "hemisphere"))
     only = parser.parse_args().only
-    for name, part in (("sliding", sled), ("sliding_hemisphere", hemisphere)):
-        if only in (None, name.removeprefix("sliding_").replace("sliding", "sled")):
+    for name, key, part in (("sliding", "sled", sled), ("sliding_patch", "patch", patch),
+                            ("sliding_ironing", "ironing", ironing),
+                            ("sliding_hemisphere", "hemisphere", hemisphere)):
+        if only in (None, key):
             lines = part()
             update_section(name, "\n".join(lines), REPO / "docs" / "validation.md")
             print("\n".join(lines))

@@ -85,6 +85,7 @@ class Params:
     tool_penalty: float | None = None  # tool contact penalty [N/mm^3]; none: 10 C_max / h
     skin_contact: Literal["small", "finite"] = "small"  # skins on the core: small or finite sliding
     skin_refinement: int = 1  # finite sliding: skin elements per core element in plane
+    skin_transfer: Literal["area", "point"] = "area"  # finite sliding: skin force onto the core
     tools: Literal["analytic", "stl", "step"] = "analytic"  # tools: formulas or surface meshes
     tool_angle: float = 5.0  # surface-mesh tools: largest angle per triangle on curved faces [deg]
     tool_max_size: float = 25.0  # surface-mesh tools: largest triangle on flat faces [mm]
@@ -123,7 +124,7 @@ def build(p: Params) -> Job:
     half, R = p.size / 2, p.punch_diameter / 2
     skins = Skins(NonCrimpFabric(thickness=p.skin_thickness), p.plies, p.skin_friction,
                   p.skin_stabilisation, p.skin_smoothing, p.skin_contact,
-                  p.skin_refinement) if p.skins else None
+                  p.skin_refinement, p.skin_transfer) if p.skins else None
     b = rectangular_blank(half, half, p.thickness, p.cells, honeycomb_core(
         p.elasticity, curve=p.curve, viscosity=p.viscosity), skins, p.grading)
     # nodes at zero pressure (fabric on tools, a transverse core's flange): elastic-slip

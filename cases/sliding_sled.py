@@ -45,12 +45,14 @@ class Params:
     overlap: float = 0.0  # fabric placed this far into the core at the start [mm]
     skin: Literal["fabric", "elastic"] = "fabric"  # NCF, or an elastic layer (E 100 MPa)
     max_step: float = 0.05  # largest load step
+    transfer: Literal["area", "point"] = "area"  # the master's load: tributary area or point
+    stabilisation: float = 0.0  # weak spring on the fabric's motion within a step (x penalty)
 
 
 def scene(p: Params) -> Scene:
     """The core block, the fabric on it and the sliding contact between them."""
     require(p, positive=("pressure", "core_element", "skin_cells", "max_step"),
-            nonnegative=("drag", "friction", "overlap"))
+            nonnegative=("drag", "friction", "overlap", "stabilisation"))
     mesh = blocks([
         Block("core", (200.0, 50.0, 10.0), (round(200.0 / p.core_element),
                                             round(50.0 / p.core_element), 2)),
@@ -68,7 +70,8 @@ def scene(p: Params) -> Scene:
                        Displacement("skin", "skin_top", x=Linear(p.drag), y=0.0)),
         tractions=(Traction("skin", "skin_top", z=-p.pressure),),
         sliding=(Sliding("skin", "core", "core_top", "skin", "skin_bottom",
-                         friction=p.friction),))
+                         friction=p.friction, transfer=p.transfer,
+                         stabilisation=p.stabilisation),))
 
 
 def build(p: Params) -> Job:

@@ -106,6 +106,8 @@ class Skins:
             distance on the core (node to surface, :mod:`forming.contact.sliding`).
         refinement: With finite sliding, skin elements per core element along each
             in-plane direction.
+        transfer: With finite sliding, how a skin node's force reaches the core
+            (:class:`~forming.scene.Sliding`: ``"area"`` or ``"point"``).
     """
 
     fabric: NonCrimpFabric
@@ -115,6 +117,7 @@ class Skins:
     smoothing: float = 0.0
     contact: Literal["small", "finite"] = "small"
     refinement: int = 1
+    transfer: Literal["area", "point"] = "area"
 
     def __post_init__(self) -> None:
         if self.contact not in ("small", "finite"):
@@ -173,8 +176,10 @@ def _sliding_sandwich(half_x: float, half_y: float, thickness: float, cells, cor
     bodies = (Body("core", core, region="core"),
               *(Body(s, skins.fabric, region=s) for s in SKINS))
     sliding = (Sliding("bottom", "core", "core_bottom", "skin_bottom", "skin_bottom_top",
-                       friction=skins.friction),
+                       friction=skins.friction, transfer=skins.transfer,
+                       stabilisation=skins.stabilisation),
                Sliding("top", "core", "core_top", "skin_top", "skin_top_bottom",
-                       friction=skins.friction))
+                       friction=skins.friction, transfer=skins.transfer,
+                       stabilisation=skins.stabilisation))
     return Blank(mesh, bodies, (), thickness + 2 * t, 0.0, "skin_top", "skin_bottom",
                  sliding=sliding, prefixed=True)

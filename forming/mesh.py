@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -81,6 +82,8 @@ class Block:
         origin: Corner with the smallest coordinates.
         grading: Per-axis ratio of consecutive cell sizes along +x, +y, +z (1: uniform;
             > 1 refines towards the low side, < 1 towards the high side).
+        warp: Map of the block's node coordinates, ``(n, 3) -> (n, 3)``, applied after
+            meshing (a die with a curved face, say); faces keep their names.
     """
 
     name: str
@@ -88,6 +91,7 @@ class Block:
     cells: tuple[int, int, int]
     origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
     grading: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    warp: Callable[[np.ndarray], np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         if len(self.size) != 3 or any(not np.isfinite(s) or s <= 0 for s in self.size):
@@ -125,6 +129,19 @@ def _add_block(gmsh, block: Block) -> tuple[int, dict[str, list[int]]]:
         faces[fname] = [s for s in surfaces if abs(gmsh.model.occ.getCenterOfMass(2, s)[axis]
                                                    - coord) < 1e-9 * max(block.size)]
     return vol, faces
+
+
+def _warp(gmsh, vol: int, block: Block) -> None:
+    """Move the nodes of a meshed block (its volume and boundary) by ``block.warp``."""
+    tags, coords, _p = gmsh.model.mesh.getNodes(3, vol, includeBoundary=True)
+    tags, first = np.unique(tags, return_index=True)
+    x = np.asarray(coords).reshape(-1, 3)[first]
+    y = np.asarray(block.warp(x.copy()), dtype=float)
+    if y.shape != x.shape or not np.all(np.isfinite(y)):
+        raise InputError("mesh.warp", f"block {block.name!r}: the map must return finite "
+                         f"coordinates of shape {x.shape}")
+    for t, p in zip(tags, y, strict=True):
+        gmsh.model.mesh.setNode(int(t), p.tolist(), [])
 
 
 def blocks(parts: list[Block], comm: MPI.Comm = MPI.COMM_WORLD) -> MeshData:
@@ -173,14 +190,19 @@ def _generate(parts: list[Block], comm: MPI.Comm, prefix: bool) -> MeshData:
     try:
         if comm.rank == 0:
             tag = 1
+            volumes = []
             for i, block in enumerate(parts, start=1):
                 vol, faces = _add_block(gmsh, block)
+                volumes.append(vol)
                 gmsh.model.addPhysicalGroup(3, [vol], i, name=block.name)
                 for fname, ents in faces.items():
                     gmsh.model.addPhysicalGroup(
                         2, ents, tag, name=f"{block.name}_{fname}" if prefix else fname)
                     tag += 1
             gmsh.model.mesh.generate(3)
+            for block, vol in zip(parts, volumes, strict=True):
+                if block.warp is not None:
+                    _warp(gmsh, vol, block)
         return mesh_from_gmsh(gmsh, comm)
     finally:
         gmsh.model.remove()

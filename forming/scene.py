@@ -320,6 +320,14 @@ class Sliding:
             largest elastic stiffness and the shortest facet edge of either side.
         tolerance: Admissible penetration [mm]; default 1% of that edge or of the thinner
             body.
+        transfer: How a slave node's force reaches the master: ``"area"`` spread over the
+            node's tributary area (passes the contact patch test on non-matching meshes)
+            or ``"point"`` at its closest point (classic node to surface, cheaper).
+        stabilisation: A weak spring on each slave node's motion within a load step
+            relative to the master point it began the step on, as a fraction of the
+            penalty (0: none); its total force is recorded as
+            ``sliding_<name>_stabilisation_N``. For nodes that open and close from one
+            Newton iteration to the next.
     """
 
     name: str
@@ -330,6 +338,8 @@ class Sliding:
     friction: float = 0.0
     penalty: float | None = None
     tolerance: float | None = None
+    transfer: Literal["area", "point"] = "area"
+    stabilisation: float = 0.0
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():
@@ -338,6 +348,12 @@ class Sliding:
             raise InputError("sliding.slave", f"must differ from master {self.master!r}")
         if not (math.isfinite(self.friction) and self.friction >= 0):
             raise InputError("sliding.friction", f"must be >= 0, got {self.friction!r}")
+        if not (math.isfinite(self.stabilisation) and self.stabilisation >= 0):
+            raise InputError("sliding.stabilisation", f"must be >= 0, got "
+                             f"{self.stabilisation!r}")
+        if self.transfer not in ("area", "point"):
+            raise InputError("sliding.transfer", f"must be 'area' or 'point', got "
+                             f"{self.transfer!r}")
         _positive_if_given(self, "sliding", ("penalty", "tolerance"))
 
 

@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 _H = 1e-5  # difference step of the Jacobian [mm] (well below the elastic slip, 5e-3 h)
+FADE = 0.1  # beyond the master's edge a node's force fades to zero over this part of a facet
 
 
 @numba.njit(cache=True)
@@ -37,7 +38,7 @@ def shape(xi, eta):
 
 
 @numba.njit(cache=True)
-def _frame(X, xi, eta):
+def frame(X, xi, eta):
     """Point, tangents X,xi and X,eta, and X,xi,eta of the bilinear facet X (4, 3)."""
     N = shape(xi, eta)
     dxi = np.array([-0.25 * (1 - eta), 0.25 * (1 - eta), 0.25 * (1 + eta), -0.25 * (1 + eta)])
@@ -65,7 +66,7 @@ def project_quad(x, X, xi0, eta0):
     """
     xi, eta = xi0, eta0
     for _it in range(25):
-        p, t1, t2, t12 = _frame(X, xi, eta)
+        p, t1, t2, t12 = frame(X, xi, eta)
         r = x - p
         f1 = r[0] * t1[0] + r[1] * t1[1] + r[2] * t1[2]
         f2 = r[0] * t2[0] + r[1] * t2[1] + r[2] * t2[2]
@@ -90,7 +91,7 @@ def project_quad(x, X, xi0, eta0):
 @numba.njit(cache=True)
 def normal_gap(x, X, xi, eta):
     """Unit normal ``X,xi x X,eta``, the facet point and the gap ``n . (x - p)``."""
-    p, t1, t2, _t12 = _frame(X, xi, eta)
+    p, t1, t2, _t12 = frame(X, xi, eta)
     n = np.array([t1[1] * t2[2] - t1[2] * t2[1], t1[2] * t2[0] - t1[0] * t2[2],
                   t1[0] * t2[1] - t1[1] * t2[0]])
     n /= math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
@@ -111,7 +112,7 @@ def smooth_normal(nn, xi, eta):
 
 @numba.njit(cache=True)
 def pair_residual(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el,
-                  area, out, mode_p=-1, mode_t=-1):
+                  area, open_sides, kappa, out, mode_p=-1, mode_t=-1):
     """Residual (27,) of one slave node on its facet, for the dofs ``z`` (27,).
 
     ``z``: the slave's position (3), the facet's four nodes (12), the history facet's
@@ -120,8 +121,14 @@ def pair_residual(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps,
     facet point is projected from (xi0, eta0) (the pairing's coordinates) so the
     derivative follows the point. ``mode_p`` (-1: by the sign of the trial pressure, 0:
     open, 1: closed) and ``mode_t`` (-1: by the cone, 0: stick, 1: slip) hold the
-    active set for the Jacobian's differences. Returns the gap, the pressure, the shear
-    traction and the two decisions.
+    active set for the Jacobian's differences. ``open_sides`` (4,): 1.0 where the facet's
+    side (xi = -1, xi = 1, eta = -1, eta = 1) is an edge of the master surface; a node
+    beyond it by ``d`` (in facet coordinates) carries ``1 - d / FADE`` of its force.
+    ``kappa`` [N/mm^3]: a stabilising spring on the slave's motion, within the step,
+    relative to the master point (``H`` at ``(hxi, heta)`` plus ``rel``) it was at when the
+    step began (0: none; ``has_hist`` decides friction only, the spring acts whenever
+    ``kappa > 0``). Returns the gap, the pressure, the shear traction, the two decisions
+    and the spring's force on the slave (3,).
     """
     x = z[0:3]
     X = z[3:15].reshape(4, 3)
@@ -150,18 +157,31 @@ def pair_residual(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps,
         shear = (limit / size) * trial if slipping else trial
     t = p * n + shear
     N = shape(xi, eta)
+    # past an edge of the master surface (not an edge shared with another facet) a node
+    # sliding off the master lets go gradually, not at once
+    beyond = max(open_sides[0] * (-1.0 - xi), open_sides[1] * (xi - 1.0),
+                 open_sides[2] * (-1.0 - eta), open_sides[3] * (eta - 1.0))
+    share = area * max(0.0, 1.0 - beyond / FADE) if beyond > 0.0 else area
+    spring = np.zeros(3)
+    Nh = shape(hxi, heta)
+    if kappa > 0.0:
+        for j in range(3):
+            spring[j] = rel[j] - x[j]
+            for a in range(4):
+                spring[j] += Nh[a] * H[a, j]
+            spring[j] *= kappa * area
     for j in range(3):
-        out[j] = -area * t[j]
+        out[j] = -share * t[j] - spring[j]
         for a in range(4):
-            out[3 + 3 * a + j] = area * N[a] * t[j]
+            out[3 + 3 * a + j] = share * N[a] * t[j]
         for a in range(4):
-            out[15 + 3 * a + j] = 0.0
-    return g, p, shear, closed, slipping
+            out[15 + 3 * a + j] = Nh[a] * spring[j]
+    return g, p, shear, closed, slipping, spring
 
 
 @numba.njit(cache=True)
 def pair_jacobian(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el,
-                  area, out):
+                  area, open_sides, kappa, out):
     """Central-difference derivative (27, 27) of :func:`pair_residual` with respect to z.
 
     The positions are taken relative to the slave node (the residual depends on
@@ -173,17 +193,18 @@ def pair_jacobian(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps,
             zp[3 * k + j] -= z[j]
     rp = np.zeros(27)
     rm = np.zeros(27)
-    _g, _p, _s, closed, slipping = pair_residual(
-        zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el, area, rp)
+    _g, _p, _s, closed, slipping, _f = pair_residual(
+        zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el, area,
+        open_sides, kappa, rp)
     mode_p, mode_t = int(closed), int(slipping)
     for k in range(27):
         zk = zp[k]
         zp[k] = zk + _H
         pair_residual(zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu,
-                      s_el, area, rp, mode_p, mode_t)
+                      s_el, area, open_sides, kappa, rp, mode_p, mode_t)
         zp[k] = zk - _H
         pair_residual(zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu,
-                      s_el, area, rm, mode_p, mode_t)
+                      s_el, area, open_sides, kappa, rm, mode_p, mode_t)
         zp[k] = zk
         for i in range(27):
             out[i, k] = (rp[i] - rm[i]) / (2.0 * _H)
