@@ -44,17 +44,18 @@ class Params:
     upper_cells: int = 5  # upper block (slave) elements along x and y
     modulus: float = 100.0  # Young's modulus of both blocks [MPa]
     transfer: Literal["area", "point"] = "area"  # the master's load: tributary area or point
+    density: float = 1e-9  # both blocks [t/mm^3] (explicit solver only)
 
 
 def scene(p: Params) -> Scene:
     """The two blocks, their rollers, the pressure and the interface."""
-    require(p, positive=("pressure", "lower_cells", "upper_cells", "modulus"))
+    require(p, positive=("pressure", "lower_cells", "upper_cells", "modulus", "density"))
     mesh = blocks([
         Block("lower", (SIDE, SIDE, HEIGHT), (p.lower_cells, p.lower_cells, 2)),
         Block("upper", (SIDE, SIDE, HEIGHT), (p.upper_cells, p.upper_cells, 2),
               origin=(0.0, 0.0, HEIGHT)),
     ])
-    solid = ElasticSolid(IsotropicElasticity(E=p.modulus, nu=0.3))
+    solid = ElasticSolid(IsotropicElasticity(E=p.modulus, nu=0.3), density=p.density)
     rollers = tuple(Displacement(b, f"{b}_{face}", reaction=False, **{axis: 0.0})
                     for b in ("lower", "upper") for face, axis in (("xmin", "x"),
                                                                    ("ymin", "y")))

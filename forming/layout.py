@@ -24,16 +24,23 @@ class Layout:
     def __init__(self, bodies: dict, comm: MPI.Comm):
         self._bodies = bodies
         sizes = [b.V.dofmap.index_map.size_local * b.V.dofmap.bs for b in bodies.values()]
+        self.local_size = sum(sizes)  # this rank's owned dofs of every body
         offset = comm.exscan(sum(sizes)) or 0
         self._index: dict[str, np.ndarray] = {}
+        self._local_offset: dict[str, int] = {}
         start = offset
         for (name, body), size in zip(bodies.items(), sizes, strict=True):
+            self._local_offset[name] = start - offset
             f = fem.Function(body.V)
             f.x.array[:size] = start + np.arange(size)
             f.x.scatter_forward()  # ghosts take their owner's index
             self._index[name] = np.rint(f.x.array).astype(np.int64)
             start += size
         self._fixed: dict[str, np.ndarray] = {}
+
+    def local_offset(self, body: str) -> int:
+        """Where ``body``'s owned dofs start within this rank's owned part of a vector."""
+        return self._local_offset[body]
 
     def index(self, body: str) -> np.ndarray:
         """Global index of each local dof (owned and ghost) of ``body``."""

@@ -62,18 +62,33 @@ def project_quad(x, X, xi0, eta0):
     """Coordinates of the closest point of the bilinear facet X (4, 3) to x.
 
     Newton from (xi0, eta0), at most 25 iterations, steps capped at 1; the result may
-    lie beyond +/-1 (the point projects outside the facet).
+    lie beyond +/-1 (the point projects outside the facet). Scalar arithmetic only (no
+    temporary arrays: it runs for every point at every evaluation).
     """
+    # X(xi, eta) = c0 + xi c1 + eta c2 + xi eta c3
+    c0 = np.empty(3)
+    c1 = np.empty(3)
+    c2 = np.empty(3)
+    c3 = np.empty(3)
+    for j in range(3):
+        c0[j] = 0.25 * (X[0, j] + X[1, j] + X[2, j] + X[3, j])
+        c1[j] = 0.25 * (-X[0, j] + X[1, j] + X[2, j] - X[3, j])
+        c2[j] = 0.25 * (-X[0, j] - X[1, j] + X[2, j] + X[3, j])
+        c3[j] = 0.25 * (X[0, j] - X[1, j] + X[2, j] - X[3, j])
     xi, eta = xi0, eta0
     for _it in range(25):
-        p, t1, t2, t12 = frame(X, xi, eta)
-        r = x - p
-        f1 = r[0] * t1[0] + r[1] * t1[1] + r[2] * t1[2]
-        f2 = r[0] * t2[0] + r[1] * t2[1] + r[2] * t2[2]
-        rt12 = r[0] * t12[0] + r[1] * t12[1] + r[2] * t12[2]
-        a11 = t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]
-        a22 = t2[0] * t2[0] + t2[1] * t2[1] + t2[2] * t2[2]
-        a12 = t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2] - rt12
+        f1 = f2 = rt12 = a11 = a22 = a12 = 0.0
+        for j in range(3):
+            t1 = c1[j] + eta * c3[j]
+            t2 = c2[j] + xi * c3[j]
+            r = x[j] - (c0[j] + xi * c1[j] + eta * c2[j] + xi * eta * c3[j])
+            f1 += r * t1
+            f2 += r * t2
+            rt12 += r * c3[j]
+            a11 += t1 * t1
+            a22 += t2 * t2
+            a12 += t1 * t2
+        a12 -= rt12
         det = a11 * a22 - a12 * a12
         if det <= 0.0:
             break

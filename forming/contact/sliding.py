@@ -40,7 +40,7 @@ from petsc4py import PETSc
 from forming.contact.slidekernels import normal_gap, pair_jacobian, pair_residual, shape
 from forming.contact.slidesurface import Surface, choose, node_normals, search_all
 from forming.contact.terms import surface_edge_min
-from forming.contact.tributary import AreaTransfer
+from forming.contact.tributary import AreaTransfer, bilinear_points
 from forming.history import ForceSampler
 from forming.layout import Layout
 from forming.vectors import assembled
@@ -73,6 +73,7 @@ class SlidingTerm:
         self.friction = spec.friction
         self.elastic_slip = 0.005 * h
         self.master = Surface(master, m_facets, layout, spec.master)
+        self._master_body = master
         self.slave = slave
         V = slave.V
         nodes = fem.locate_dofs_topological(V, 2, s_facets)
@@ -98,6 +99,7 @@ class SlidingTerm:
         self.xi = np.zeros((n, 2))
         self.inside = np.zeros(n, dtype=bool)
         self._repair = True
+        self._search_on_load = True
         self.lam_n = np.zeros(n)
         self.p_new = np.zeros(n)
         self.gap = np.full(n, np.inf)
@@ -114,16 +116,13 @@ class SlidingTerm:
         # its coordinates, slave minus that point), and whether it touched (friction)
         self.hist = self._start.copy()
         self.hist_xi = self._start_xi.copy()
-        self.rel = np.array([self.X0[i] - self._point(self.master.X0, self._start[i],
-                                                      self._start_xi[i])
-                             for i in range(n)]).reshape(n, 3)
+        self.rel = self.X0 - self._point(self.master.X0, self._start, self._start_xi)
         self.touched = np.zeros(n, dtype=bool)
         self.lam_t = np.zeros((n, 3))  # converged shear traction
 
-    def _point(self, xm: np.ndarray, facet: int, xi: np.ndarray) -> np.ndarray:
-        """The master point at coordinates ``xi`` of ``facet`` (positions ``xm``)."""
-        X = xm[self.master.facets[facet]]
-        return normal_gap(X[0], X, xi[0], xi[1])[1]
+    def _point(self, xm: np.ndarray, facet: np.ndarray, xi: np.ndarray) -> np.ndarray:
+        """The master points at coordinates ``xi`` (n, 2) of ``facet`` (n,) [mm] (n, 3)."""
+        return bilinear_points(xm[self.master.facets[facet]], xi)
 
     # -- what the model asks of every constraint -------------------------------------------
     def residuals(self, tests: dict) -> dict:
@@ -131,11 +130,32 @@ class SlidingTerm:
         return {}
 
     def stiffness_estimate(self, tests: dict) -> dict:
-        """None (the explicit solver does not take finite sliding yet)."""
-        return {}
+        """Twice the penalty on each side's surface nodes (the coupling rows add as much)."""
+        ones = ufl.as_vector([1.0, 1.0, 1.0])
+        return {name: 2.0 * self.penalty * ufl.dot(ones, tests[name]) * body.domain.ds(region)
+                for name, body, region in ((self.spec.master, self._master_body,
+                                            self.spec.master_region),
+                                           (self.spec.slave, self.slave,
+                                            self.spec.slave_region))}
 
     def set_load(self, t: float) -> None:
-        """A new load step: pair the slave nodes with facets again at the next evaluation."""
+        """A new load step: pair the slave nodes again at the next evaluation.
+
+        Unless :meth:`search_on_load` turned that off.
+        """
+        if self._search_on_load:
+            self._repair = True
+
+    def search_on_load(self, on: bool) -> None:
+        """Whether every new load parameter starts with a full search.
+
+        On for the implicit solver's load steps; off for the explicit solver, whose output
+        intervals call :meth:`repair` and whose increments walk the one-rings.
+        """
+        self._search_on_load = on
+
+    def repair(self) -> None:
+        """Pair every slave node again (full search) at the next evaluation."""
         self._repair = True
 
     def track(self) -> None:
@@ -286,8 +306,7 @@ class SlidingTerm:
         self.hist[:] = self.facet
         self.hist_xi[:] = self.xi
         self.lam_t[:] = np.where(self.touched[:, None], self.shear, 0.0)
-        for i in range(len(xs)):
-            self.rel[i] = xs[i] - self._point(xm, self.facet[i], self.xi[i])
+        self.rel[:] = xs - self._point(xm, self.facet, self.xi)
 
     def _full(self, values: np.ndarray) -> np.ndarray:
         """Node values (n, 3) as an array over the slave body's dofs (NaN elsewhere)."""
@@ -301,8 +320,7 @@ class SlidingTerm:
         The history's master point is stored by its reference coordinates, so that a
         checkpoint holds nothing that depends on the partition.
         """
-        ref = np.array([self._point(self.master.X0, self.hist[i], self.hist_xi[i])
-                        for i in range(len(self.nodes))]).reshape(-1, 3)
+        ref = self._point(self.master.X0, self.hist, self.hist_xi)
         lam = np.zeros((len(self.nodes), 3))
         lam[:, 0] = self.lam_n
         lam[:, 1] = self.touched

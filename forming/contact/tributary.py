@@ -70,15 +70,12 @@ def tributary_points(X0: np.ndarray, facets: np.ndarray, nodes: np.ndarray):
             np.array(pst, dtype=float).reshape(-1, 2), np.array(phi, dtype=float))
 
 
-@numba.njit(cache=True)
-def surface_point(X, s, t):
-    """The point of the bilinear facet X (4, 3) at (s, t)."""
-    N = shape(s, t)
-    p = np.zeros(3)
-    for a in range(4):
-        for j in range(3):
-            p[j] += N[a] * X[a, j]
-    return p
+def bilinear_points(X: np.ndarray, st: np.ndarray) -> np.ndarray:
+    """Points of bilinear facets: ``X`` (n, 4, 3) at coordinates ``st`` (n, 2) (n, 3)."""
+    s, t = st[:, 0], st[:, 1]
+    N = 0.25 * np.stack([(1 - s) * (1 - t), (1 + s) * (1 - t), (1 + s) * (1 + t),
+                         (1 - s) * (1 + t)], axis=1)
+    return np.einsum("na,naj->nj", N, X)
 
 
 @numba.njit(cache=True)
@@ -241,10 +238,8 @@ class AreaTransfer:
             node_facet: Each owned slave node's master facet (the walks start there).
         """
         xsurf = self.slave.positions()
-        sf = self.slave.facets
-        for q in range(len(self.pf)):
-            p = surface_point(xsurf[sf[self.pf[q]]], self.st[q, 0], self.st[q, 1])
-            self.offsets[q] = p - xs[self.owner[q]]
+        points = bilinear_points(xsurf[self.slave.facets[self.pf]], self.st)
+        self.offsets[:] = points - xs[self.owner]
         self.facet[:] = node_facet[self.owner]
         self.xi[:] = 0.0
         self.follow(xs, xm)

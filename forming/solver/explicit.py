@@ -34,11 +34,11 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat, signals  # noqa: F401
-from forming.errors import InputError, KernelFailure
+from forming.errors import KernelFailure
 from forming.model import Model
 from forming.solver.base import StepResult
 from forming.solver.ledger import EnergyLedger
-from forming.solver.lumped import BodyState, ExternalTerm, ToolTerm, body_density
+from forming.solver.lumped import BodyState, ExternalTerm, OutsideForms, ToolTerm, body_density
 from forming.solver.options import ExplicitOptions
 from forming.solver.stepping import StepControl
 from forming.solver.timestep import StableStep
@@ -64,9 +64,6 @@ class ExplicitSolver:
     retries_on_failure = False  # an unstable explicit run does not recover by cutting back
 
     def __init__(self, model: Model, options: ExplicitOptions | None = None):
-        if model.sliding:
-            raise InputError("solver", "finite sliding between bodies (scene.sliding) runs "
-                             "with the implicit solver only so far")
         self.model = model
         self.options = opts = options or ExplicitOptions()
         comm = model.comm
@@ -93,7 +90,11 @@ class ExplicitSolver:
         self._loads = [ExternalTerm(by_name[tr.body], fem.form(
             -ufl.dot(const, tests[tr.body]) * ds, entity_maps=emaps))
             for tr, const, ds in model.tractions]
-        self._terms = [*self._sides, *self._loads]  # assembled from forms
+        # finite sliding: assembled by global index, split per body after each assembly
+        self._outside = [OutsideForms(sl, model.layout, [by_name[b] for b in sl.bodies])
+                         for sl in model.sliding]
+        self._sides += [part for o in self._outside for part in o.parts]
+        self._terms = [*self._sides, *self._loads]  # assembled from forms (or split)
         # what the solver commits itself at every increment (not through the model)
         self._own = {id(loop.body) for loop in self._loop_list}
         self._own |= {id(t.contact) for t in self._tools}
@@ -153,6 +154,8 @@ class ExplicitSolver:
                 st.body.update_material(want_tangent=False)
                 assembled(self._internal[st.name], st.f_int)
             st.f_all.x.array[:] = st.f_int.x.array
+        for outside in self._outside:
+            outside.update()
         for term in self._terms:
             term.update()
             term.state.f_all.x.array[:] += term.vec.x.array
@@ -288,6 +291,8 @@ class ExplicitSolver:
                 # interval's end (or a restore) handed over
                 self.dt = self._dt_ref = self._bound.time_step()
                 self._omega2_ref = self._omega2_now
+            for outside in self._outside:
+                outside.start_interval()
             while self.tau < tau_end * (1 - 1e-12):
                 n_left = math.ceil((tau_end - self.tau) / self.dt - 1e-9)
                 dt = (tau_end - self.tau) / max(n_left, 1)

@@ -123,3 +123,59 @@ class ToolTerm:
     def set_residual_vector(self, full: np.ndarray) -> None:
         """Return the last residual to a snapshot."""
         self.nodal.r[:] = full[self.dofs].reshape(-1, 3)
+
+
+class _Part:
+    """One body's share of a constraint assembled outside the forms (see OutsideForms)."""
+
+    def __init__(self, state: BodyState):
+        self.state = state
+        self.vec = fem.Function(state.body.V)
+        self.r_old = np.zeros(state.n_owned)
+
+    def update(self) -> None:
+        """Nothing: :meth:`OutsideForms.update` fills every part at once."""
+
+    @property
+    def r_new(self) -> np.ndarray:
+        """The part's owned entries as last assembled."""
+        return self.vec.x.array[: self.state.n_owned]
+
+
+class OutsideForms:
+    """A constraint assembled by global index (finite sliding), for the explicit solver.
+
+    One global vector in the layout of the implicit solver, split into a part per body
+    after every assembly. The constraint searches its pairs afresh at each output
+    interval (:meth:`start_interval`), not at each increment.
+
+    Args:
+        term: The constraint (``add_residual(vec)`` with global indices).
+        layout: The model's dof layout.
+        states: The explicit state of the bodies it acts on.
+    """
+
+    def __init__(self, term, layout, states: list[BodyState]):
+        from petsc4py import PETSc
+
+        self.term = term
+        term.search_on_load(False)
+        self.parts = [_Part(st) for st in states]
+        comm = states[0].body.mesh.comm
+        self._vec = PETSc.Vec().createMPI((layout.local_size, PETSc.DECIDE), comm=comm)
+        self._slices = [slice(layout.local_offset(st.name),
+                              layout.local_offset(st.name) + st.n_owned) for st in states]
+
+    def start_interval(self) -> None:
+        """An output interval begins: a full search at the next assembly."""
+        self.term.repair()
+
+    def update(self) -> None:
+        """Assemble the constraint's residual and hand each body its part."""
+        self._vec.zeroEntries()
+        self.term.add_residual(self._vec)
+        values = self._vec.getArray(readonly=True)
+        for part, sl in zip(self.parts, self._slices, strict=True):
+            part.r_old[:] = part.r_new
+            part.vec.x.array[: part.state.n_owned] = values[sl]
+            part.vec.x.scatter_forward()
