@@ -280,15 +280,21 @@ class Model:
             c.set_load(t)
 
     def search_timing(self) -> dict[str, float]:
-        """``contact_search_s``: closest-point queries on surface-mesh tools, rank mean [s].
+        """Rank means [s] of the contact searches and evaluations outside the forms.
 
-        Empty for a scene whose tools are all analytic.
+        ``contact_search_s``: closest-point queries on surface-mesh tools; ``sliding_s``:
+        finite sliding (search, the pairs' residuals and Jacobians). Each only for a scene
+        that has such tools or interfaces.
         """
+        out = {}
         shapes = [t.shape for t in self.scene.tools if t.shape.tracked]
-        if not shapes:
-            return {}
-        local = sum(s.search_seconds for s in shapes)
-        return {"contact_search_s": self.comm.allreduce(local) / self.comm.size}
+        if shapes:
+            local = sum(s.search_seconds for s in shapes)
+            out["contact_search_s"] = self.comm.allreduce(local) / self.comm.size
+        if self.sliding:
+            local = sum(sl.seconds for sl in self.sliding)
+            out["sliding_s"] = self.comm.allreduce(local) / self.comm.size
+        return out
 
     def add_residual(self, b) -> None:
         """Add the constraints assembled outside the forms to a residual vector."""

@@ -31,6 +31,8 @@ ones. See docs/theory.md, section 11.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import ufl
 from dolfinx import fem
@@ -100,6 +102,7 @@ class SlidingTerm:
         self.inside = np.zeros(n, dtype=bool)
         self._repair = True
         self._search_on_load = True
+        self.seconds = 0.0  # wall time of the search and the pairs' evaluations [s]
         self.lam_n = np.zeros(n)
         self.p_new = np.zeros(n)
         self.gap = np.full(n, np.inf)
@@ -206,6 +209,7 @@ class SlidingTerm:
 
     def add_residual(self, b: PETSc.Vec) -> None:
         """Add the contact's residual to the solver's vector (global indices)."""
+        t0 = time.perf_counter()
         r = np.zeros(27)
         self.gap[:] = np.inf
         self.p_new[:] = 0.0
@@ -225,11 +229,13 @@ class SlidingTerm:
                                          (W[:, :, None] * self.force[i]).reshape(-1)])
             keep = rows >= 0  # (a vector does not skip negative indices as a matrix does)
             b.setValues(rows[keep], values[keep], addv=PETSc.InsertMode.ADD_VALUES)
+        self.seconds += time.perf_counter() - t0
         b.assemblyBegin()
         b.assemblyEnd()
 
     def add_jacobian(self, A: PETSc.Mat) -> None:
         """Add the contact's Jacobian to the solver's matrix (global indices)."""
+        t0 = time.perf_counter()
         K = np.zeros((27, 27))
         for i, z, idx in self._pairs():
             pair_jacobian(z, *self._args(i), K)
@@ -252,6 +258,7 @@ class SlidingTerm:
                 A.setValues(rows[k], cols, (t[None, :, None] * dW[k][:, None, :]
                                             ).reshape(12, 15),
                             addv=PETSc.InsertMode.ADD_VALUES)
+        self.seconds += time.perf_counter() - t0
         A.assemble()
 
     def _rows(self, facets: np.ndarray) -> np.ndarray:
