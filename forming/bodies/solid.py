@@ -240,6 +240,8 @@ class SolidBody(BodyBase):
 
     def cell_average(self, values: np.ndarray) -> np.ndarray:
         """Average of point values (of :attr:`point_cells`) over each owned cell."""
+        if self.n_local_cells == 0:  # a rank may own none of a body's cells
+            return np.zeros(0)
         return values.reshape(self.n_local_cells, -1).mean(axis=1)
 
     def warnings(self) -> list[str]:

@@ -21,23 +21,6 @@ _QUAD = [0, 1, 3, 2]  # DOLFINx's tensor-product facet vertices, counter-clockwi
 
 
 @numba.njit(cache=True)
-def choose(x, cands, facets, xm, xi0, eta0):
-    """The candidate facet nearest to x; its coordinates and whether x projects onto it."""
-    best, best_d, bxi, beta, inside = -1, np.inf, 0.0, 0.0, False
-    for f in cands:
-        X = xm[facets[f]]
-        xi, eta = project_quad(x, X, xi0 if f == cands[0] else 0.0,
-                               eta0 if f == cands[0] else 0.0)
-        cx, ce = max(-1.0, min(1.0, xi)), max(-1.0, min(1.0, eta))
-        _n, p, _g = normal_gap(x, X, cx, ce)
-        d = np.sqrt(np.sum((x - p) ** 2))
-        if d < best_d - 1e-12:
-            best, best_d, bxi, beta = f, d, xi, eta
-            inside = abs(xi) <= INSIDE and abs(eta) <= INSIDE
-    return best, bxi, beta, inside
-
-
-@numba.njit(cache=True)
 def search_all(xs, facets, xm, out_f, out_xi):
     """Pair every point with its nearest facet (all facets; centroid-pruned)."""
     nf = facets.shape[0]
@@ -102,6 +85,14 @@ def open_sides(facets: np.ndarray) -> np.ndarray:
                       for a, b in sides] for row in facets]).reshape(-1, 4)
 
 
+def padded(rings: list[np.ndarray]) -> np.ndarray:
+    """One-rings as rows of one array, padded with -1 (for the compiled walks)."""
+    out = np.full((len(rings), max(len(r) for r in rings)), -1, dtype=np.int64)
+    for f, r in enumerate(rings):
+        out[f, :len(r)] = r
+    return out
+
+
 class Surface:
     """A surface's facets on every rank, with their nodes' global indices (replicated)."""
 
@@ -147,6 +138,7 @@ class Surface:
         _u, once = np.unique(np.sort(all_keys, axis=1), axis=0, return_index=True)
         self.facets = np.searchsorted(uniq, all_keys[np.sort(once)])
         self.rings = one_rings(self.facets, len(uniq))
+        self.rings_padded = padded(self.rings)
         self.open_sides = open_sides(self.facets)
         # this rank's owned master nodes, and where their values go in the gathered table
         owned = local_nodes[local_nodes < imap.size_local]

@@ -39,8 +39,9 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from forming.contact.slidebatch import pair_all, residual_all
 from forming.contact.slidekernels import normal_gap, pair_jacobian, pair_residual, shape
-from forming.contact.slidesurface import Surface, choose, node_normals, search_all
+from forming.contact.slidesurface import INSIDE, Surface, node_normals, search_all
 from forming.contact.terms import surface_edge_min
 from forming.contact.tributary import AreaTransfer, bilinear_points
 from forming.history import ForceSampler
@@ -85,7 +86,7 @@ class SlidingTerm:
             surface = Surface(slave, s_facets, layout, spec.slave)
             keys = V.dofmap.index_map.local_to_global(self.nodes.astype(np.int32))
             self.spreading = AreaTransfer(surface, np.searchsorted(surface.keys, keys),
-                                          self.master.facets, self.master.rings)
+                                          self.master.facets, self.master.rings_padded)
         w = ufl.TestFunction(V)
         ds = slave.domain.ds(spec.slave_region, quadrature_rule="vertex", quadrature_degree=1)
         area = fem.Function(V)
@@ -175,10 +176,8 @@ class SlidingTerm:
             search_all(xs, facets, xm, self.facet, self.xi)
             self.node_normal = node_normals(xm, facets)
             self._repair = False
-        for i in range(len(xs)):
-            f, xi, eta, inside = choose(xs[i], self.master.rings[self.facet[i]], facets, xm,
-                                         self.xi[i, 0], self.xi[i, 1])
-            self.facet[i], self.xi[i], self.inside[i] = f, (xi, eta), inside
+        pair_all(xs, xm, facets, self.master.rings_padded, self.facet, self.xi, self.inside,
+                 INSIDE)
         if self.spreading is not None:
             if repaired:
                 self.spreading.repair(xs, xm, self.facet)
@@ -208,27 +207,39 @@ class SlidingTerm:
                 self.master.open_sides[self.facet[i]], self.kappa)
 
     def add_residual(self, b: PETSc.Vec) -> None:
-        """Add the contact's residual to the solver's vector (global indices)."""
+        """Add the contact's residual to the solver's vector (global indices).
+
+        Every pair in one compiled call (:func:`~forming.contact.slidebatch.residual_all`).
+        """
         t0 = time.perf_counter()
-        r = np.zeros(27)
+        xs = self._slave_positions()
+        xm = self.master.positions()
+        self._pair(xs, xm)
+        on = np.flatnonzero(self.inside)
+        for a in (self.p_new, self.shear, self.force, self.spring):
+            a[:] = 0.0
         self.gap[:] = np.inf
-        self.p_new[:] = 0.0
-        self.shear[:] = 0.0
-        self.force[:] = 0.0
-        self.spring[:] = 0.0
-        for i, z, idx in self._pairs():
-            g, p, shear, _closed, _slip, spring = pair_residual(z, *self._args(i), r)
-            self.gap[i], self.p_new[i], self.shear[i] = g, p, shear
-            self.force[i] = -r[:3] - spring
-            self.spring[i] = spring
-            rows, values = idx, r
-            if self.spreading is not None:  # the master's rows from the tributary area
-                mine, W, _dW = self.spreading.weights(i, z[:3], self._xm, False)
-                rows = np.concatenate([idx[:3], idx[15:], self._rows(mine)])
-                values = np.concatenate([r[:3], r[15:],
-                                         (W[:, :, None] * self.force[i]).reshape(-1)])
-            keep = rows >= 0  # (a vector does not skip negative indices as a matrix does)
-            b.setValues(rows[keep], values[keep], addv=PETSc.InsertMode.ADD_VALUES)
+        sp = self.spreading
+        if sp is None:
+            size = 27 * len(on)
+            ptr = np.zeros(1, dtype=np.int64)
+            offsets, phi, pfacet, pxi = np.zeros((0, 3)), np.zeros(0), ptr, np.zeros((0, 2))
+        else:
+            points = np.diff(sp.ptr)[on]
+            size = int(np.sum(15 + 12 * np.minimum(points, len(self.master.facets))))
+            ptr, offsets, phi, pfacet, pxi = sp.ptr, sp.offsets, sp.phi, sp.facet, sp.xi
+        rows = np.empty(size, dtype=np.int64)
+        values = np.empty(size)
+        n = residual_all(on, xs, xm, self.master.facets, self.master.index, self.s_index,
+                         self.facet, self.xi, self.hist, self.hist_xi, self.touched, self.rel,
+                         self.lam_n, self.lam_t, self.node_normal, self.master.open_sides,
+                         self.area, self.penalty, self.friction, self.elastic_slip,
+                         self.kappa, sp is not None, ptr, offsets, phi, pfacet, pxi,
+                         rows, values, self.gap, self.p_new, self.shear, self.force,
+                         self.spring)
+        keep = rows[:n] >= 0  # (a vector does not skip negative indices as a matrix does)
+        b.setValues(rows[:n][keep].astype(PETSc.IntType), values[:n][keep],
+                    addv=PETSc.InsertMode.ADD_VALUES)
         self.seconds += time.perf_counter() - t0
         b.assemblyBegin()
         b.assemblyEnd()

@@ -198,14 +198,6 @@ def follow(points, facets, xm, rings, facet, xi):
                 break
 
 
-def padded(rings: list[np.ndarray]) -> np.ndarray:
-    """One-rings as rows of one array, padded with -1 (for the compiled walk)."""
-    out = np.full((len(rings), max(len(r) for r in rings)), -1, dtype=np.int64)
-    for f, r in enumerate(rings):
-        out[f, :len(r)] = r
-    return out
-
-
 class AreaTransfer:
     """The tributary points of a rank's slave nodes and their master weights.
 
@@ -213,7 +205,7 @@ class AreaTransfer:
         slave: The replicated slave surface (reference coordinates, facets, positions()).
         node_index: Each owned slave node's index in that surface.
         master_facets: The master surface's facets (rows of four node indices).
-        master_rings: The master facets' one-rings.
+        master_rings: The master facets' one-rings, padded with -1.
     """
 
     def __init__(self, slave, node_index: np.ndarray, master_facets: np.ndarray,
@@ -223,7 +215,7 @@ class AreaTransfer:
                                                                 node_index)
         self.owner = np.repeat(np.arange(len(node_index)), np.diff(self.ptr))
         self.facets = master_facets
-        self.rings = padded(master_rings)
+        self.rings = master_rings
         n = len(self.pf)
         self.offsets = np.zeros((n, 3))
         self.facet = np.zeros(n, dtype=np.int64)
