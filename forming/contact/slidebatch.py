@@ -12,7 +12,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from forming.contact.slidekernels import pair_residual, project_quad
+from forming.contact.slidekernels import pair_jacobian, pair_residual, project_quad, shape
 from forming.contact.tributary import spread
 
 
@@ -116,3 +116,124 @@ def residual_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, t
                     values[n] = W[k, a] * force[i, j]
                     n += 1
     return n
+
+
+@numba.njit(cache=True)
+def distinct_facets(on, ptr, pfacet):
+    """How many master facets the points of each pair ``on`` lie on (0 without points)."""
+    out = np.zeros(on.shape[0], dtype=np.int64)
+    for k in range(on.shape[0]):
+        i = on[k]
+        if ptr.shape[0] > i + 1 and ptr[i + 1] > ptr[i]:
+            out[k] = np.unique(pfacet[ptr[i]:ptr[i + 1]]).shape[0]
+    return out
+
+
+@numba.njit(cache=True)
+def jacobian_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, touched, rel,
+                 lam_n, lam_t, node_normal, open_sides, area, eps, mu, s_el, kappa,
+                 use_area, ptr, offsets, phi, pfacet, pxi, row_at, col_at, val_at,
+                 rows, cols, values):
+    """Each pair's Jacobian as dense blocks: their rows, columns and row-major values.
+
+    Pair ``k`` writes from ``row_at[k]``, ``col_at[k]`` and ``val_at[k]``. Node to point:
+    one 27 x 27 block, the derivative of
+    :func:`~forming.contact.slidekernels.pair_residual`. Area transfer: a 15 x 27 block
+    (the slave's and the history facet's rows on the pair's 27 dofs), then one 12 x 39
+    block per master facet the points reach (its rows ``W d(force) + force dW``, see
+    :func:`~forming.contact.tributary.spread`, on the 27 dofs and its own 12).
+    """
+    K27 = np.zeros((27, 27))
+    r = np.zeros(27)
+    z = np.zeros(27)
+    for k in range(on.shape[0]):
+        i = on[k]
+        f, h = facet[i], hist[i]
+        for j in range(3):
+            z[j] = xs[i, j]
+        for a in range(4):
+            for j in range(3):
+                z[3 + 3 * a + j] = xm[facets[f, a], j]
+                z[15 + 3 * a + j] = xm[facets[h, a], j]
+        idx = np.empty(27, dtype=np.int64)
+        for j in range(3):
+            idx[j] = s_index[i, j]
+        for a in range(4):
+            for j in range(3):
+                idx[3 + 3 * a + j] = index[facets[f, a], j]
+                idx[15 + 3 * a + j] = index[facets[h, a], j]
+        nn = node_normal[facets[f]]
+        pair_jacobian(z, nn, xi[i, 0], xi[i, 1], hist_xi[i, 0], hist_xi[i, 1], touched[i],
+                      rel[i], lam_n[i], lam_t[i], eps, mu, s_el, area[i], open_sides[f],
+                      kappa, K27)
+        r0, c0, v0 = row_at[k], col_at[k], val_at[k]
+        if not use_area:
+            for a in range(27):
+                rows[r0 + a] = idx[a]
+                cols[c0 + a] = idx[a]
+                for b in range(27):
+                    values[v0 + 27 * a + b] = K27[a, b]
+            continue
+        _g, _p, _s, _c, _sl, spr = pair_residual(
+            z, nn, xi[i, 0], xi[i, 1], hist_xi[i, 0], hist_xi[i, 1], touched[i], rel[i],
+            lam_n[i], lam_t[i], eps, mu, s_el, area[i], open_sides[f], kappa, r)
+        t = np.empty(3)
+        for j in range(3):
+            t[j] = -r[j] - spr[j]
+        # the contact force's derivative: the slave rows without the spring's
+        dforce = np.empty((3, 27))
+        for j in range(3):
+            for b in range(27):
+                dforce[j, b] = -K27[j, b]
+        if kappa > 0.0:
+            ka = kappa * area[i]
+            Nh = shape(hist_xi[i, 0], hist_xi[i, 1])
+            for j in range(3):
+                dforce[j, j] -= -ka
+                for a in range(4):
+                    dforce[j, 15 + 3 * a + j] -= ka * Nh[a]
+        lo, hi = ptr[i], ptr[i + 1]
+        mine = np.unique(pfacet[lo:hi])
+        which = np.searchsorted(mine, pfacet[lo:hi])
+        nk = mine.shape[0]
+        Xk = np.empty((nk, 4, 3))
+        for q in range(nk):
+            for a in range(4):
+                for j in range(3):
+                    Xk[q, a, j] = xm[facets[mine[q], a], j]
+        W = np.zeros((nk, 4))
+        dW = np.zeros((nk, 4, 15))
+        local_xi = pxi[lo:hi].copy()
+        spread(xs[i], offsets[lo:hi], phi[lo:hi], which, Xk, local_xi, W, dW, True)
+        # blocks: the slave and history rows (15) on the pair's 27 dofs; then per facet
+        # its 12 rows on the 27 dofs and its own 12 (no zeros inserted elsewhere)
+        for a in range(3):
+            rows[r0 + a] = idx[a]
+        for a in range(12):
+            rows[r0 + 3 + a] = idx[15 + a]
+        for b in range(27):
+            cols[c0 + b] = idx[b]
+        for a in range(3):
+            for b in range(27):
+                values[v0 + 27 * a + b] = K27[a, b]
+        for a in range(12):
+            for b in range(27):
+                values[v0 + 27 * (3 + a) + b] = K27[15 + a, b]
+        for q in range(nk):
+            rq, cq, vq = r0 + 15 + 12 * q, c0 + 27 + 39 * q, v0 + 405 + 468 * q
+            for b in range(27):
+                cols[cq + b] = idx[b]
+            for a in range(4):
+                for j in range(3):
+                    g = index[facets[mine[q], a], j]
+                    rows[rq + 3 * a + j] = g
+                    cols[cq + 27 + 3 * a + j] = g
+            for a in range(4):
+                for j in range(3):
+                    base = vq + 39 * (3 * a + j)
+                    for b in range(27):
+                        values[base + b] = W[q, a] * dforce[j, b]
+                    for c in range(3):  # the weights move with the node
+                        values[base + c] += t[j] * dW[q, a, c]
+                    for c in range(12):  # and with the facet's nodes
+                        values[base + 27 + c] = t[j] * dW[q, a, 3 + c]

@@ -39,8 +39,8 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from forming.contact.slidebatch import pair_all, residual_all
-from forming.contact.slidekernels import normal_gap, pair_jacobian, pair_residual, shape
+from forming.contact.slidebatch import distinct_facets, jacobian_all, pair_all, residual_all
+from forming.contact.slidekernels import normal_gap
 from forming.contact.slidesurface import INSIDE, Surface, node_normals, search_all
 from forming.contact.terms import surface_edge_min
 from forming.contact.tributary import AreaTransfer, bilinear_points
@@ -184,28 +184,6 @@ class SlidingTerm:
             else:
                 self.spreading.follow(xs, xm)
 
-    def _pairs(self):
-        """Per active pair: its 27 dofs' positions and global indices, and its data."""
-        xs = self._slave_positions()
-        xm = self.master.positions()
-        self._pair(xs, xm)
-        self._xm = xm
-        facets, index = self.master.facets, self.master.index
-        for i in np.flatnonzero(self.inside):
-            f = self.facet[i]
-            h = self.hist[i]
-            z = np.concatenate([xs[i], xm[facets[f]].reshape(-1), xm[facets[h]].reshape(-1)])
-            idx = np.concatenate([self.s_index[i], index[facets[f]].reshape(-1),
-                                  index[facets[h]].reshape(-1)]).astype(PETSc.IntType)
-            yield i, z, idx
-
-    def _args(self, i: int):
-        nn = self.node_normal[self.master.facets[self.facet[i]]]
-        return (nn, self.xi[i, 0], self.xi[i, 1], self.hist_xi[i, 0], self.hist_xi[i, 1],
-                self.touched[i], self.rel[i], self.lam_n[i], self.lam_t[i], self.penalty,
-                self.friction, self.elastic_slip, self.area[i],
-                self.master.open_sides[self.facet[i]], self.kappa)
-
     def add_residual(self, b: PETSc.Vec) -> None:
         """Add the contact's residual to the solver's vector (global indices).
 
@@ -220,14 +198,12 @@ class SlidingTerm:
             a[:] = 0.0
         self.gap[:] = np.inf
         sp = self.spreading
+        ptr, offsets, phi, pfacet, pxi = self._points()
         if sp is None:
             size = 27 * len(on)
-            ptr = np.zeros(1, dtype=np.int64)
-            offsets, phi, pfacet, pxi = np.zeros((0, 3)), np.zeros(0), ptr, np.zeros((0, 2))
         else:
             points = np.diff(sp.ptr)[on]
             size = int(np.sum(15 + 12 * np.minimum(points, len(self.master.facets))))
-            ptr, offsets, phi, pfacet, pxi = sp.ptr, sp.offsets, sp.phi, sp.facet, sp.xi
         rows = np.empty(size, dtype=np.int64)
         values = np.empty(size)
         n = residual_all(on, xs, xm, self.master.facets, self.master.index, self.s_index,
@@ -245,53 +221,58 @@ class SlidingTerm:
         b.assemblyEnd()
 
     def add_jacobian(self, A: PETSc.Mat) -> None:
-        """Add the contact's Jacobian to the solver's matrix (global indices)."""
+        """Add the contact's Jacobian to the solver's matrix (global indices).
+
+        Every pair's block computed in one compiled call
+        (:func:`~forming.contact.slidebatch.jacobian_all`), then added block by block.
+        """
         t0 = time.perf_counter()
-        K = np.zeros((27, 27))
-        for i, z, idx in self._pairs():
-            pair_jacobian(z, *self._args(i), K)
+        xs = self._slave_positions()
+        xm = self.master.positions()
+        self._pair(xs, xm)
+        on = np.flatnonzero(self.inside)
+        ptr, offsets, phi, pfacet, pxi = self._points()
+        if self.spreading is None:
+            nk = np.zeros(len(on), dtype=np.int64)
+            nrow = ncol = np.full(len(on), 27, dtype=np.int64)
+            nval = nrow * ncol
+        else:
+            nk = distinct_facets(on, ptr, pfacet)
+            nrow, ncol, nval = 15 + 12 * nk, 27 + 39 * nk, 405 + 468 * nk
+        row_at, col_at, val_at = (np.concatenate([[0], np.cumsum(v)]).astype(np.int64)
+                                  for v in (nrow, ncol, nval))
+        rows = np.empty(row_at[-1], dtype=np.int64)
+        cols = np.empty(col_at[-1], dtype=np.int64)
+        values = np.empty(val_at[-1])
+        jacobian_all(on, xs, xm, self.master.facets, self.master.index, self.s_index,
+                     self.facet, self.xi, self.hist, self.hist_xi, self.touched, self.rel,
+                     self.lam_n, self.lam_t, self.node_normal, self.master.open_sides,
+                     self.area, self.penalty, self.friction, self.elastic_slip, self.kappa,
+                     self.spreading is not None, ptr, offsets, phi, pfacet, pxi,
+                     row_at, col_at, val_at, rows, cols, values)
+        rows = rows.astype(PETSc.IntType)
+        cols = cols.astype(PETSc.IntType)
+        add = PETSc.InsertMode.ADD_VALUES
+        for k in range(len(on)):
+            r, c, v = row_at[k], col_at[k], val_at[k]
             if self.spreading is None:
-                A.setValues(idx, idx, K, addv=PETSc.InsertMode.ADD_VALUES)
+                A.setValues(rows[r:r + 27], cols[c:c + 27], values[v:v + 729], addv=add)
                 continue
-            A.setValues(idx[:3], idx, K[:3], addv=PETSc.InsertMode.ADD_VALUES)
-            A.setValues(idx[15:], idx, K[15:], addv=PETSc.InsertMode.ADD_VALUES)
-            mine, W, dW = self.spreading.weights(i, z[:3], self._xm, True)
-            # the derivative of the contact force on the slave (3, 27): the residual's
-            # slave rows without the stabilising spring's
-            force = -K[:3] - self._spring_derivative(i)
-            rows = self._rows(mine).reshape(-1, 12)
-            t = self.force_of(i, z)
-            for k in range(len(mine)):
-                block = (W[k][:, None, None] * force[None]).reshape(12, 27)
-                A.setValues(rows[k], idx, block, addv=PETSc.InsertMode.ADD_VALUES)
-                # the weights move with the node (its first 3 dofs) and the facet's nodes
-                cols = np.concatenate([idx[:3], rows[k]])
-                A.setValues(rows[k], cols, (t[None, :, None] * dW[k][:, None, :]
-                                            ).reshape(12, 15),
-                            addv=PETSc.InsertMode.ADD_VALUES)
+            A.setValues(rows[r:r + 15], cols[c:c + 27], values[v:v + 405], addv=add)
+            for q in range(nk[k]):
+                rq, cq, vq = r + 15 + 12 * q, c + 27 + 39 * q, v + 405 + 468 * q
+                A.setValues(rows[rq:rq + 12], cols[cq:cq + 39], values[vq:vq + 468],
+                            addv=add)
         self.seconds += time.perf_counter() - t0
         A.assemble()
 
-    def _rows(self, facets: np.ndarray) -> np.ndarray:
-        """Global indices of the nodes of master ``facets`` (-1: prescribed)."""
-        return self.master.index[self.master.facets[facets]].reshape(-1).astype(PETSc.IntType)
-
-    def force_of(self, i: int, z: np.ndarray) -> np.ndarray:
-        """The contact force of the master on slave node ``i`` at the dofs ``z`` [N] (3,)."""
-        r = np.zeros(27)
-        spring = pair_residual(z, *self._args(i), r)[5]
-        return -r[:3] - spring
-
-    def _spring_derivative(self, i: int) -> np.ndarray:
-        """Derivative (3, 27) of the stabilising spring's force on slave node ``i``."""
-        S = np.zeros((3, 27))
-        if self.kappa > 0.0:
-            k = self.kappa * self.area[i]
-            S[:, :3] = -k * np.eye(3)
-            Nh = shape(self.hist_xi[i, 0], self.hist_xi[i, 1])
-            for a in range(4):
-                S[:, 15 + 3 * a:18 + 3 * a] = k * Nh[a] * np.eye(3)
-        return S
+    def _points(self):
+        """The area transfer's points (empty arrays for the point transfer)."""
+        sp = self.spreading
+        if sp is None:
+            empty = np.zeros(1, dtype=np.int64)
+            return empty, np.zeros((0, 3)), np.zeros(0), empty, np.zeros((0, 2))
+        return sp.ptr, sp.offsets, sp.phi, sp.facet, sp.xi
 
     # -- augmented Lagrangian and history --------------------------------------------------
     def _max(self, values: np.ndarray) -> float:

@@ -240,20 +240,3 @@ class AreaTransfer:
         """Move every point to the master facet it now lies over."""
         points = xs[self.owner] + self.offsets
         follow(points, self.facets, xm, self.rings, self.facet, self.xi)
-
-    def weights(self, i: int, x: np.ndarray, xm: np.ndarray, derivative: bool):
-        """Master facets reached from node ``i`` and the weights of its force on them.
-
-        Returns:
-            ``(facets, W, dW)``: the K facet indices, ``W`` (K, 4) and, if asked, ``dW``
-            (K, 4, 15) (see :func:`spread`).
-        """
-        sl = slice(self.ptr[i], self.ptr[i + 1])
-        mine, which = np.unique(self.facet[sl], return_inverse=True)
-        K = len(mine)
-        W = np.zeros((K, 4))
-        dW = np.zeros((K, 4, 15))
-        xi = self.xi[sl].copy()
-        spread(x, self.offsets[sl], self.phi[sl], which.astype(np.int64), xm[self.facets[mine]],
-               xi, W, dW, derivative)
-        return mine, W, dW
