@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from dolfinx.fem.petsc import assign
-from helpers import run_mpi, solver_taylor
+from helpers import history, run_mpi, solver_taylor
 
 from forming.case import load_case, prepare_case, run_case
 from forming.job import Job
@@ -19,6 +19,16 @@ from forming.solver.stepping import StepControl
 MU = 0.52  # fabric on core (paper)
 AREA = 50.0 * 48.0  # fabric [mm^2]
 SLED = load_case("sliding_sled")
+
+
+def _same_histories(a, b, columns: tuple[str, ...], rtol: float = 1e-6) -> None:
+    """Two runs' histories (folders ``a``, ``b``) have the same rows and equal columns."""
+    h1 = history(a)
+    h2 = history(b)
+    assert len(h1) == len(h2)
+    for col in columns:
+        np.testing.assert_allclose(h2[col], h1[col], rtol=rtol,
+                                   atol=rtol * np.abs(h1[col]).max())
 
 
 def _sled(drag: float, overlap: float = 0.0, pressure: float = 0.002,
@@ -210,12 +220,8 @@ def test_sliding_restart_on_two_ranks_equals_the_uninterrupted_run(tmp_path):
     assert sim.finish()["status"] == "stopped"
     proc = run_mpi(["cases/sliding_sled.py", "--restart", str(tmp_path / "stopped")])
     assert proc.returncode == 0, proc.stderr[-2000:]
-    whole = np.genfromtxt(tmp_path / "whole" / "history.csv", delimiter=",", names=True)
-    again = np.genfromtxt(tmp_path / "stopped" / "history.csv", delimiter=",", names=True)
-    assert len(again) == len(whole)
-    for col in ("sliding_skin_x_N", "sliding_skin_z_N", "sliding_skin_stabilisation_N"):
-        np.testing.assert_allclose(again[col], whole[col], rtol=1e-6,
-                                   atol=1e-6 * np.abs(whole[col]).max())
+    _same_histories(tmp_path / "whole", tmp_path / "stopped",
+                    ("sliding_skin_x_N", "sliding_skin_z_N", "sliding_skin_stabilisation_N"))
 
 
 @pytest.mark.slow
@@ -230,9 +236,5 @@ def test_hemisphere_with_sliding_skins_on_two_ranks_equals_serial(tmp_path):
     proc = run_mpi(["cases/hemisphere.py", "--out", str(tmp_path / "mpi"),
                     *[a for kv in sets for a in ("--set", kv)]], timeout=1800)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    h1 = np.genfromtxt(tmp_path / "serial" / "history.csv", delimiter=",", names=True)
-    h2 = np.genfromtxt(tmp_path / "mpi" / "history.csv", delimiter=",", names=True)
-    assert len(h1) == len(h2)
-    for col in ("force_punch_z_N", "sliding_top_x_N", "sliding_bottom_z_N"):
-        np.testing.assert_allclose(h2[col], h1[col], rtol=1e-6,
-                                   atol=1e-6 * np.abs(h1[col]).max())
+    _same_histories(tmp_path / "serial", tmp_path / "mpi",
+                    ("force_punch_z_N", "sliding_top_x_N", "sliding_bottom_z_N"))

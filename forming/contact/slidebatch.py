@@ -52,6 +52,40 @@ def _distance_to(x, X, a, b):
 
 
 @numba.njit(cache=True)
+def _gather(i, xs, xm, facets, index, s_index, facet, hist, z, idx):
+    """Pair ``i``'s 27 dof positions and global indices: slave, facet, history facet."""
+    f, h = facet[i], hist[i]
+    for j in range(3):
+        z[j] = xs[i, j]
+        idx[j] = s_index[i, j]
+    for a in range(4):
+        for j in range(3):
+            z[3 + 3 * a + j] = xm[facets[f, a], j]
+            z[15 + 3 * a + j] = xm[facets[h, a], j]
+            idx[3 + 3 * a + j] = index[facets[f, a], j]
+            idx[15 + 3 * a + j] = index[facets[h, a], j]
+
+
+@numba.njit(cache=True)
+def _weights(i, xs, xm, facets, ptr, offsets, phi, pfacet, pxi, derivative):
+    """The master facets node ``i``'s points reach, and its weights on them (spread)."""
+    lo, hi = ptr[i], ptr[i + 1]
+    mine = np.unique(pfacet[lo:hi])
+    which = np.searchsorted(mine, pfacet[lo:hi])
+    nk = mine.shape[0]
+    Xk = np.empty((nk, 4, 3))
+    for q in range(nk):
+        for a in range(4):
+            for j in range(3):
+                Xk[q, a, j] = xm[facets[mine[q], a], j]
+    W = np.zeros((nk, 4))
+    dW = np.zeros((nk if derivative else 1, 4, 15))
+    local_xi = pxi[lo:hi].copy()
+    spread(xs[i], offsets[lo:hi], phi[lo:hi], which, Xk, local_xi, W, dW, derivative)
+    return mine, W, dW
+
+
+@numba.njit(cache=True)
 def residual_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, touched, rel,
                  lam_n, lam_t, node_normal, open_sides, area, eps, mu, s_el, kappa,
                  use_area, ptr, offsets, phi, pfacet, pxi,
@@ -63,15 +97,11 @@ def residual_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, t
     """
     r = np.zeros(27)
     z = np.zeros(27)
+    idx = np.empty(27, dtype=np.int64)
     n = 0
     for i in on:
         f, h = facet[i], hist[i]
-        for j in range(3):
-            z[j] = xs[i, j]
-        for a in range(4):
-            for j in range(3):
-                z[3 + 3 * a + j] = xm[facets[f, a], j]
-                z[15 + 3 * a + j] = xm[facets[h, a], j]
+        _gather(i, xs, xm, facets, index, s_index, facet, hist, z, idx)
         g, p, sh, _c, _s, spr = pair_residual(
             z, node_normal[facets[f]], xi[i, 0], xi[i, 1], hist_xi[i, 0], hist_xi[i, 1],
             touched[i], rel[i], lam_n[i], lam_t[i], eps, mu, s_el, area[i], open_sides[f],
@@ -96,19 +126,8 @@ def residual_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, t
                     values[n] = r[3 + 3 * a + j]
                     n += 1
             continue
-        lo, hi = ptr[i], ptr[i + 1]
-        mine = np.unique(pfacet[lo:hi])
-        which = np.searchsorted(mine, pfacet[lo:hi])
+        mine, W, _dW = _weights(i, xs, xm, facets, ptr, offsets, phi, pfacet, pxi, False)
         K = mine.shape[0]
-        Xk = np.empty((K, 4, 3))
-        for k in range(K):
-            for a in range(4):
-                for j in range(3):
-                    Xk[k, a, j] = xm[facets[mine[k], a], j]
-        W = np.zeros((K, 4))
-        dW = np.zeros((1, 4, 15))
-        local_xi = pxi[lo:hi].copy()
-        spread(xs[i], offsets[lo:hi], phi[lo:hi], which, Xk, local_xi, W, dW, False)
         for k in range(K):
             for a in range(4):
                 for j in range(3):
@@ -146,22 +165,11 @@ def jacobian_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, t
     K27 = np.zeros((27, 27))
     r = np.zeros(27)
     z = np.zeros(27)
+    idx = np.empty(27, dtype=np.int64)
     for k in range(on.shape[0]):
         i = on[k]
-        f, h = facet[i], hist[i]
-        for j in range(3):
-            z[j] = xs[i, j]
-        for a in range(4):
-            for j in range(3):
-                z[3 + 3 * a + j] = xm[facets[f, a], j]
-                z[15 + 3 * a + j] = xm[facets[h, a], j]
-        idx = np.empty(27, dtype=np.int64)
-        for j in range(3):
-            idx[j] = s_index[i, j]
-        for a in range(4):
-            for j in range(3):
-                idx[3 + 3 * a + j] = index[facets[f, a], j]
-                idx[15 + 3 * a + j] = index[facets[h, a], j]
+        f = facet[i]
+        _gather(i, xs, xm, facets, index, s_index, facet, hist, z, idx)
         nn = node_normal[facets[f]]
         pair_jacobian(z, nn, xi[i, 0], xi[i, 1], hist_xi[i, 0], hist_xi[i, 1], touched[i],
                       rel[i], lam_n[i], lam_t[i], eps, mu, s_el, area[i], open_sides[f],
@@ -192,19 +200,8 @@ def jacobian_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, t
                 dforce[j, j] -= -ka
                 for a in range(4):
                     dforce[j, 15 + 3 * a + j] -= ka * Nh[a]
-        lo, hi = ptr[i], ptr[i + 1]
-        mine = np.unique(pfacet[lo:hi])
-        which = np.searchsorted(mine, pfacet[lo:hi])
+        mine, W, dW = _weights(i, xs, xm, facets, ptr, offsets, phi, pfacet, pxi, True)
         nk = mine.shape[0]
-        Xk = np.empty((nk, 4, 3))
-        for q in range(nk):
-            for a in range(4):
-                for j in range(3):
-                    Xk[q, a, j] = xm[facets[mine[q], a], j]
-        W = np.zeros((nk, 4))
-        dW = np.zeros((nk, 4, 15))
-        local_xi = pxi[lo:hi].copy()
-        spread(xs[i], offsets[lo:hi], phi[lo:hi], which, Xk, local_xi, W, dW, True)
         # blocks: the slave and history rows (15) on the pair's 27 dofs; then per facet
         # its 12 rows on the 27 dofs and its own 12 (no zeros inserted elsewhere)
         for a in range(3):
