@@ -193,7 +193,7 @@ def test_hemisphere_with_sliding_skins_completes(tmp_path):
     the 8 x 8 x 2 mesh (18.75 mm elements) completes the 50 mm stroke with skins that slide
     more than half an element on the core (measured 14.5 mm), without the small-sliding
     warning, and with the top skin sheared both ways (measured -26.1 to +25.9 deg; the
-    small-sliding run: -25.7 to +25.5). About 160 s, so in ``scripts/dev.sh validate``."""
+    small-sliding run: -25.7 to +25.5). About 80 s, so in ``scripts/dev.sh validate``."""
     s = run_case("hemisphere", tmp_path, ["skins=true", "blank_holder=true", "cells=8,8,2",
                                           "skin_contact=finite"])
     assert s["status"] == "completed", s["reason"]
