@@ -197,6 +197,14 @@ class Tool:
         return out
 
 
+def _nonnegative(spec, prefix: str, names: tuple[str, ...]) -> None:
+    """Refuse a setting that is not a finite number >= 0."""
+    for name in names:
+        v = getattr(spec, name)
+        if not (math.isfinite(v) and v >= 0):
+            raise InputError(f"{prefix}.{name}", f"must be >= 0, got {v!r}")
+
+
 def _positive_if_given(spec, prefix: str, names: tuple[str, ...]) -> None:
     """Refuse a given (not None) setting that is not a positive number."""
     for name in names:
@@ -235,8 +243,7 @@ class Contact:
     stick: Literal["augmented", "elastic_slip"] = "augmented"
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.friction) and self.friction >= 0):
-            raise InputError("contact.friction", f"must be >= 0, got {self.friction!r}")
+        _nonnegative(self, "contact", ("friction",))
         if self.stick not in ("augmented", "elastic_slip"):
             raise InputError("contact.stick", f"must be 'augmented' or 'elastic_slip', "
                              f"got {self.stick!r}")
@@ -286,18 +293,12 @@ class Interface:
     smoothing: float = 0.0
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.stabilisation) and self.stabilisation >= 0):
-            raise InputError("interface.stabilisation",
-                             f"must be >= 0, got {self.stabilisation!r}")
+        _nonnegative(self, "interface", ("stabilisation", "friction", "smoothing"))
         if self.kind not in ("frictional", "bonded"):
             raise InputError("interface.kind",
                              f"must be 'frictional' or 'bonded', got {self.kind!r}")
         if self.body == self.other:
             raise InputError("interface.other", f"must differ from body {self.body!r}")
-        if not (math.isfinite(self.friction) and self.friction >= 0):
-            raise InputError("interface.friction", f"must be >= 0, got {self.friction!r}")
-        if not (math.isfinite(self.smoothing) and self.smoothing >= 0):
-            raise InputError("interface.smoothing", f"must be >= 0, got {self.smoothing!r}")
         _positive_if_given(self, "interface", ("penalty", "tolerance", "slip_warning"))
 
 
@@ -346,11 +347,7 @@ class Sliding:
             raise InputError("sliding.name", f"must be an identifier, got {self.name!r}")
         if self.master == self.slave:
             raise InputError("sliding.slave", f"must differ from master {self.master!r}")
-        if not (math.isfinite(self.friction) and self.friction >= 0):
-            raise InputError("sliding.friction", f"must be >= 0, got {self.friction!r}")
-        if not (math.isfinite(self.stabilisation) and self.stabilisation >= 0):
-            raise InputError("sliding.stabilisation", f"must be >= 0, got "
-                             f"{self.stabilisation!r}")
+        _nonnegative(self, "sliding", ("friction", "stabilisation"))
         if self.transfer not in ("area", "point"):
             raise InputError("sliding.transfer", f"must be 'area' or 'point', got "
                              f"{self.transfer!r}")

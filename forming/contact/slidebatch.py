@@ -12,7 +12,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from forming.contact.slidekernels import pair_jacobian, pair_residual, project_quad, shape
+from forming.contact.slidekernels import pair_jacobian, pair_residual, shape
+from forming.contact.slidesurface import ring_step
 from forming.contact.tributary import spread
 
 
@@ -20,35 +21,9 @@ from forming.contact.tributary import spread
 def pair_all(xs, xm, facets, rings, facet, xi, inside, inside_bound):
     """Walk every slave node to the nearest facet of its pair's one-ring (in place)."""
     for i in range(xs.shape[0]):
-        x = xs[i]
-        f0 = facet[i]
-        best, best_d, bxi, beta, ok = f0, np.inf, 0.0, 0.0, False
-        for f in rings[f0]:
-            if f < 0:
-                break
-            X = xm[facets[f]]
-            from_xi = xi[i, 0] if f == f0 else 0.0
-            from_eta = xi[i, 1] if f == f0 else 0.0
-            a, b = project_quad(x, X, from_xi, from_eta)
-            ca, cb = max(-1.0, min(1.0, a)), max(-1.0, min(1.0, b))
-            d = _distance_to(x, X, ca, cb)
-            if d < best_d - 1e-12:
-                best, best_d, bxi, beta = f, d, a, b
-                ok = abs(a) <= inside_bound and abs(b) <= inside_bound
-        facet[i], xi[i, 0], xi[i, 1], inside[i] = best, bxi, beta, ok
-
-
-@numba.njit(cache=True)
-def _distance_to(x, X, a, b):
-    N0 = 0.25 * (1 - a) * (1 - b)
-    N1 = 0.25 * (1 + a) * (1 - b)
-    N2 = 0.25 * (1 + a) * (1 + b)
-    N3 = 0.25 * (1 - a) * (1 + b)
-    d2 = 0.0
-    for j in range(3):
-        p = N0 * X[0, j] + N1 * X[1, j] + N2 * X[2, j] + N3 * X[3, j]
-        d2 += (x[j] - p) ** 2
-    return np.sqrt(d2)
+        f, a, b = ring_step(xs[i], facet[i], xi[i, 0], xi[i, 1], facets, xm, rings)
+        facet[i], xi[i, 0], xi[i, 1] = f, a, b
+        inside[i] = abs(a) <= inside_bound and abs(b) <= inside_bound
 
 
 @numba.njit(cache=True)

@@ -85,6 +85,39 @@ def open_sides(facets: np.ndarray) -> np.ndarray:
                       for a, b in sides] for row in facets]).reshape(-1, 4)
 
 
+@numba.njit(cache=True)
+def _distance_to(x, X, a, b):
+    """Distance from x to the point (a, b) of the bilinear facet X (4, 3)."""
+    N0 = 0.25 * (1 - a) * (1 - b)
+    N1 = 0.25 * (1 + a) * (1 - b)
+    N2 = 0.25 * (1 + a) * (1 + b)
+    N3 = 0.25 * (1 - a) * (1 + b)
+    d2 = 0.0
+    for j in range(3):
+        p = N0 * X[0, j] + N1 * X[1, j] + N2 * X[2, j] + N3 * X[3, j]
+        d2 += (x[j] - p) ** 2
+    return np.sqrt(d2)
+
+
+@numba.njit(cache=True)
+def ring_step(x, f0, xi0, eta0, facets, xm, rings):
+    """The facet of ``f0``'s one-ring whose (clamped) closest point to x is nearest.
+
+    Returns it and x's unclamped coordinates on it; projections start from (xi0, eta0)
+    on ``f0`` and from the centre elsewhere.
+    """
+    best, best_d, bxi, beta = f0, np.inf, 0.0, 0.0
+    for f in rings[f0]:
+        if f < 0:
+            break
+        X = xm[facets[f]]
+        a, b = project_quad(x, X, xi0 if f == f0 else 0.0, eta0 if f == f0 else 0.0)
+        d = _distance_to(x, X, max(-1.0, min(1.0, a)), max(-1.0, min(1.0, b)))
+        if d < best_d - 1e-12:
+            best, best_d, bxi, beta = f, d, a, b
+    return best, bxi, beta
+
+
 def padded(rings: list[np.ndarray]) -> np.ndarray:
     """One-rings as rows of one array, padded with -1 (for the compiled walks)."""
     out = np.full((len(rings), max(len(r) for r in rings)), -1, dtype=np.int64)

@@ -23,10 +23,16 @@ ones. See docs/theory.md, section 11.
   slip of a step is the slave node's motion relative to the master's *material* point it
   touched at the last converged step (its facet and coordinates are history), so it is
   right after the node has moved onto another facet.
+* **Transfer to the master**: ``"area"`` spreads each node's force over its tributary
+  area (:mod:`forming.contact.tributary`, passes the contact patch test); ``"point"``
+  puts it at the node's closest point.
+* **Stabilisation** (optional): a weak spring on each node's motion within the step,
+  relative to the master point it began the step on.
 * **Assembly**: outside the forms: each pair's residual on its 27 dofs (slave node, facet,
-  history facet) and its Jacobian by central differences (slidekernels.py) are added to
-  the solver's vector and matrix by global index (:class:`~forming.layout.Layout`);
-  prescribed rows and columns are skipped.
+  history facet; with the area transfer also the facets its points reach) and its
+  Jacobian by central differences (slidekernels.py), all pairs in one compiled call
+  (slidebatch.py), are added to the solver's vector and matrix by global index
+  (:class:`~forming.layout.Layout`); prescribed rows and columns are skipped.
 """
 
 from __future__ import annotations
@@ -40,7 +46,6 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from forming.contact.slidebatch import distinct_facets, jacobian_all, pair_all, residual_all
-from forming.contact.slidekernels import normal_gap
 from forming.contact.slidesurface import INSIDE, Surface, node_normals, search_all
 from forming.contact.terms import surface_edge_min
 from forming.contact.tributary import AreaTransfer, bilinear_points
@@ -102,6 +107,7 @@ class SlidingTerm:
         self.xi = np.zeros((n, 2))
         self.inside = np.zeros(n, dtype=bool)
         self._repair = True
+        self._paired_at: tuple[np.ndarray, np.ndarray] | None = None
         self._search_on_load = True
         self.seconds = 0.0  # wall time of the search and the pairs' evaluations [s]
         self.lam_n = np.zeros(n)
@@ -170,6 +176,17 @@ class SlidingTerm:
         return self.X0 + self.slave.u.x.array.reshape(-1, 3)[self.nodes]
 
     def _pair(self, xs: np.ndarray, xm: np.ndarray) -> None:
+        """Pair the slave nodes (and the area transfer's points) at these positions.
+
+        Skipped when nothing moved since the last pairing (the Jacobian after the
+        residual at the same iterate): the walk could otherwise go one ring further and
+        the Jacobian belong to another pairing than the residual.
+        """
+        last = self._paired_at
+        if (not self._repair and last is not None and np.array_equal(last[0], xs)
+                and np.array_equal(last[1], xm)):
+            return
+        self._paired_at = (xs.copy(), xm.copy())
         facets = self.master.facets
         repaired = self._repair
         if repaired:
@@ -356,13 +373,8 @@ class SlidingTerm:
     def max_slip(self) -> float:
         """Largest distance of a slave node from the master point it started on [mm]."""
         xs = self._slave_positions()
-        xm = self.master.positions()
-        worst = 0.0
-        for i in range(len(xs)):
-            X = xm[self.master.facets[self._start[i]]]
-            p = normal_gap(xs[i], X, self._start_xi[i, 0], self._start_xi[i, 1])[1]
-            worst = max(worst, float(np.linalg.norm(xs[i] - p)))
-        return self.comm.allreduce(worst, op=MPI.MAX)
+        start = self._point(self.master.positions(), self._start, self._start_xi)
+        return self._max(np.linalg.norm(xs - start, axis=1))
 
     def warnings(self) -> list[str]:
         """Nothing to warn about: the pairing follows any slip."""

@@ -23,7 +23,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from forming.contact.slidekernels import frame, normal_gap, project_quad, shape
+from forming.contact.slidekernels import frame, project_quad, shape
+from forming.contact.slidesurface import ring_step
 
 _GAUSS = np.polynomial.legendre.leggauss(4)
 
@@ -179,21 +180,8 @@ def follow(points, facets, xm, rings, facet, xi):
             continue
         for _walk in range(4):
             f0 = facet[q]
-            best, best_d = f0, np.inf
-            ring = rings[f0]
-            for f in ring:
-                if f < 0:
-                    break
-                X = xm[facets[f]]
-                a, b = project_quad(x, X, xi[q, 0] if f == f0 else 0.0,
-                                    xi[q, 1] if f == f0 else 0.0)
-                ca, cb = max(-1.0, min(1.0, a)), max(-1.0, min(1.0, b))
-                _n, p, _g = normal_gap(x, X, ca, cb)
-                d = np.sqrt(np.sum((x - p) ** 2))
-                if d < best_d - 1e-12:
-                    best, best_d = f, d
-                    xi[q, 0], xi[q, 1] = a, b
-            facet[q] = best
+            best, a, b = ring_step(x, f0, xi[q, 0], xi[q, 1], facets, xm, rings)
+            facet[q], xi[q, 0], xi[q, 1] = best, a, b
             if best == f0:
                 break
 
