@@ -80,7 +80,7 @@ class Params:
     skin_friction: float = FABRIC_CORE_FRICTION  # skin-core Coulomb coefficient (paper: 0.52)
     tool_skin_friction: float = TOOL_FABRIC_FRICTION  # tool-skin Coulomb coefficient (paper: 0.23)
     skin_stabilisation: float = 1e-3  # interface stabilisation, fraction of its penalty
-    skin_smoothing: float = 0.0  # smoothed interface pressure ramp (fraction)
+    skin_smoothing: float | None = None  # smoothed skin-core pressure ramp; none: see below
     tool_stick: Literal["auto", "augmented", "elastic_slip"] = "auto"  # tool stick law
     tool_penalty: float | None = None  # tool contact penalty [N/mm^3]; none: 10 C_max / h
     skin_contact: Literal["small", "finite"] = "small"  # skins on the core: small or finite sliding
@@ -103,6 +103,19 @@ def hinges_at_zero_pressure(p: Params) -> bool:
     return p.skins or p.elasticity == "transverse"
 
 
+def skin_smoothing(p: Params) -> float:
+    """The skin-core pressure ramp's smoothing (``skin_smoothing``, or its default).
+
+    Finite sliding: 0.1 of the tolerance's pressure. Without it the nodes at almost zero
+    pressure switched between open and closed from one Newton iteration to the next and
+    the default mesh without holder stopped at 1.75 mm; with it, the same run went on to
+    47 mm (docs/theory.md, section 11). Small sliding: 0 (its validated figures).
+    """
+    if p.skin_smoothing is not None:
+        return p.skin_smoothing
+    return 0.1 if p.skin_contact == "finite" else 0.0
+
+
 def contact_numerics(p: Params) -> tuple[str, str]:
     """The tool stick law (resolving ``auto``) and the Newton line search of the run.
 
@@ -117,13 +130,14 @@ def contact_numerics(p: Params) -> tuple[str, str]:
 def build(p: Params) -> Job:
     require(p, positive=("size", "thickness", "punch_diameter", "die_diameter", "stroke")
             + (("tool_penalty",) if p.tool_penalty is not None else ()),
-            nonnegative=("friction", "edge_radius", "skin_friction", "tool_skin_friction"))
+            nonnegative=("friction", "edge_radius", "skin_friction", "tool_skin_friction")
+            + (("skin_smoothing",) if p.skin_smoothing is not None else ()))
     if p.punch_diameter >= p.die_diameter:
         raise InputError("--set punch_diameter", f"{p.punch_diameter:g} mm does not pass the "
                          f"{p.die_diameter:g} mm die opening")
     half, R = p.size / 2, p.punch_diameter / 2
     skins = Skins(NonCrimpFabric(thickness=p.skin_thickness), p.plies, p.skin_friction,
-                  p.skin_stabilisation, p.skin_smoothing, p.skin_contact,
+                  p.skin_stabilisation, skin_smoothing(p), p.skin_contact,
                   p.skin_refinement, p.skin_transfer) if p.skins else None
     b = rectangular_blank(half, half, p.thickness, p.cells, honeycomb_core(
         p.elasticity, curve=p.curve, viscosity=p.viscosity), skins, p.grading)

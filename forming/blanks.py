@@ -177,9 +177,9 @@ def _sliding_sandwich(half_x: float, half_y: float, thickness: float, cells, cor
               *(Body(s, skins.fabric, region=s) for s in SKINS))
     sliding = (Sliding("bottom", "core", "core_bottom", "skin_bottom", "skin_bottom_top",
                        friction=skins.friction, transfer=skins.transfer,
-                       stabilisation=skins.stabilisation),
+                       stabilisation=skins.stabilisation, smoothing=skins.smoothing),
                Sliding("top", "core", "core_top", "skin_top", "skin_top_bottom",
                        friction=skins.friction, transfer=skins.transfer,
-                       stabilisation=skins.stabilisation))
+                       stabilisation=skins.stabilisation, smoothing=skins.smoothing))
     return Blank(mesh, bodies, (), thickness + 2 * t, 0.0, "skin_top", "skin_bottom",
                  sliding=sliding, prefixed=True)

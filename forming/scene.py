@@ -329,6 +329,10 @@ class Sliding:
             penalty (0: none); its total force is recorded as
             ``sliding_<name>_stabilisation_N``. For nodes that open and close from one
             Newton iteration to the next.
+        smoothing: Width of a smoothed pressure ramp (a parabola around zero trial
+            pressure), as a fraction of the pressure the penetration tolerance stands for
+            (penalty x tolerance); 0: the sharp ramp. At zero gap it leaves an eighth of
+            the width; below a gap of half the width over the penalty, nothing.
     """
 
     name: str
@@ -341,13 +345,14 @@ class Sliding:
     tolerance: float | None = None
     transfer: Literal["area", "point"] = "area"
     stabilisation: float = 0.0
+    smoothing: float = 0.0
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():
             raise InputError("sliding.name", f"must be an identifier, got {self.name!r}")
         if self.master == self.slave:
             raise InputError("sliding.slave", f"must differ from master {self.master!r}")
-        _nonnegative(self, "sliding", ("friction", "stabilisation"))
+        _nonnegative(self, "sliding", ("friction", "stabilisation", "smoothing"))
         if self.transfer not in ("area", "point"):
             raise InputError("sliding.transfer", f"must be 'area' or 'point', got "
                              f"{self.transfer!r}")

@@ -72,10 +72,11 @@ def test_large_slip_sled_on_two_ranks_equals_serial(tmp_path):
         np.testing.assert_allclose(h2[col], h1[col], rtol=1e-6, atol=1e-9)
 
 
-@pytest.mark.parametrize("sliding,transfer,stabilisation", [
-    (False, "area", 0.0), (True, "area", 0.0), (False, "point", 0.0), (True, "point", 0.0),
-    (True, "area", 0.01), (True, "point", 0.01)])
-def test_sliding_jacobian_taylor(tmp_path, sliding, transfer, stabilisation):
+@pytest.mark.parametrize("sliding,transfer,stabilisation,smoothing", [
+    (False, "area", 0.0, 0.0), (True, "area", 0.0, 0.0), (False, "point", 0.0, 0.0),
+    (True, "point", 0.0, 0.0), (True, "area", 0.01, 0.0), (True, "point", 0.01, 0.0),
+    (False, "area", 0.0, 1.0), (True, "area", 0.01, 1.0)])
+def test_sliding_jacobian_taylor(tmp_path, sliding, transfer, stabilisation, smoothing):
     """Slopes 1 and 2 of the Taylor remainders of the whole sled (core, fabric and the
     sliding contact assembled outside the forms).
 
@@ -88,12 +89,14 @@ def test_sliding_jacobian_taylor(tmp_path, sliding, transfer, stabilisation):
     0.01. Both transfers of the slave's force to the master: at the closest point, and
     spread over the node's tributary area (the weights' motion with the node and the
     facet enters the Jacobian); with and without the stabilising spring (anchored at the
-    master points of the step's start). A second-remainder slope of 1 means the pair Jacobians
-    (central differences of the pair residual) miss a dependence, or land on the wrong
-    global rows or columns."""
+    master points of the step's start); with and without the smoothed pressure ramp (a
+    parabola of the width of the tolerance's pressure). A second-remainder slope of 1
+    means the pair Jacobians (central differences of the pair residual) miss a
+    dependence, or land on the wrong global rows or columns."""
     scene = (_sled(70.0, pressure=0.05, skin="elastic", transfer=transfer) if sliding
              else _sled(0.0, overlap=0.02, transfer=transfer))
-    scene = replace(scene, sliding=(replace(scene.sliding[0], stabilisation=stabilisation),))
+    scene = replace(scene, sliding=(replace(scene.sliding[0], stabilisation=stabilisation,
+                                            smoothing=smoothing),))
     sim = Simulation(Job(scene, steps=StepControl(initial=0.02, max=0.02),
                          newton=NewtonOptions(line_search="basic")), tmp_path, "sled")
     sim.start()

@@ -62,7 +62,7 @@ def _weights(i, xs, xm, facets, ptr, offsets, phi, pfacet, pxi, derivative):
 
 @numba.njit(cache=True)
 def residual_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, touched, rel,
-                 lam_n, lam_t, node_normal, open_sides, area, eps, mu, s_el, kappa,
+                 lam_n, lam_t, node_normal, open_sides, area, eps, mu, s_el, kappa, width,
                  use_area, ptr, offsets, phi, pfacet, pxi,
                  rows, values, gap, p_new, shear, force, spring):
     """The residual of every pair ``on`` (slave node indices) as (row, value) entries.
@@ -80,7 +80,7 @@ def residual_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, t
         g, p, sh, _c, _s, spr = pair_residual(
             z, node_normal[facets[f]], xi[i, 0], xi[i, 1], hist_xi[i, 0], hist_xi[i, 1],
             touched[i], rel[i], lam_n[i], lam_t[i], eps, mu, s_el, area[i], open_sides[f],
-            kappa, r)
+            kappa, width, r)
         gap[i], p_new[i] = g, p
         for j in range(3):
             shear[i, j] = sh[j]
@@ -125,7 +125,7 @@ def distinct_facets(on, ptr, pfacet):
 
 @numba.njit(cache=True)
 def jacobian_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, touched, rel,
-                 lam_n, lam_t, node_normal, open_sides, area, eps, mu, s_el, kappa,
+                 lam_n, lam_t, node_normal, open_sides, area, eps, mu, s_el, kappa, width,
                  use_area, ptr, offsets, phi, pfacet, pxi, row_at, col_at, val_at,
                  rows, cols, values):
     """Each pair's Jacobian as dense blocks: their rows, columns and row-major values.
@@ -148,7 +148,7 @@ def jacobian_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, t
         nn = node_normal[facets[f]]
         pair_jacobian(z, nn, xi[i, 0], xi[i, 1], hist_xi[i, 0], hist_xi[i, 1], touched[i],
                       rel[i], lam_n[i], lam_t[i], eps, mu, s_el, area[i], open_sides[f],
-                      kappa, K27)
+                      kappa, width, K27)
         r0, c0, v0 = row_at[k], col_at[k], val_at[k]
         if not use_area:
             for a in range(27):
@@ -159,7 +159,7 @@ def jacobian_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, t
             continue
         _g, _p, _s, _c, _sl, spr = pair_residual(
             z, nn, xi[i, 0], xi[i, 1], hist_xi[i, 0], hist_xi[i, 1], touched[i], rel[i],
-            lam_n[i], lam_t[i], eps, mu, s_el, area[i], open_sides[f], kappa, r)
+            lam_n[i], lam_t[i], eps, mu, s_el, area[i], open_sides[f], kappa, width, r)
         t = np.empty(3)
         for j in range(3):
             t[j] = -r[j] - spr[j]

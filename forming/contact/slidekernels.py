@@ -126,8 +126,24 @@ def smooth_normal(nn, xi, eta):
 
 
 @numba.njit(cache=True)
+def ramp(trial, width):
+    """The pressure for an augmented trial pressure: ``max(0, trial)``, or smoothed.
+
+    With ``width > 0`` the kink is replaced by a parabola over ``|trial| < width / 2``
+    (C1, zero below ``-width / 2``, ``trial`` above ``width / 2``; ``width / 8`` at zero):
+    a node at almost zero pressure then has a pressure and a stiffness that change
+    continuously from one Newton iteration to the next instead of switching.
+    """
+    if width <= 0.0 or trial >= 0.5 * width:
+        return max(trial, 0.0)
+    if trial <= -0.5 * width:
+        return 0.0
+    return (trial + 0.5 * width) ** 2 / (2.0 * width)
+
+
+@numba.njit(cache=True)
 def pair_residual(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el,
-                  area, open_sides, kappa, out, mode_p=-1, mode_t=-1):
+                  area, open_sides, kappa, width, out, mode_p=-1, mode_t=-1):
     """Residual (27,) of one slave node on its facet, for the dofs ``z`` (27,).
 
     ``z``: the slave's position (3), the facet's four nodes (12), the history facet's
@@ -142,8 +158,9 @@ def pair_residual(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps,
     ``kappa`` [N/mm^3]: a stabilising spring on the slave's motion, within the step,
     relative to the master point (``H`` at ``(hxi, heta)`` plus ``rel``) it was at when the
     step began (0: none; ``has_hist`` decides friction only, the spring acts whenever
-    ``kappa > 0``). Returns the gap, the pressure, the shear traction, the two decisions
-    and the spring's force on the slave (3,).
+    ``kappa > 0``). ``width`` [MPa]: the pressure ramp's smoothing (0: the sharp
+    ``max(0, trial)``; else :func:`ramp`). Returns the gap, the pressure, the shear
+    traction, the two decisions and the spring's force on the slave (3,).
     """
     x = z[0:3]
     X = z[3:15].reshape(4, 3)
@@ -153,8 +170,9 @@ def pair_residual(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps,
     n = smooth_normal(nn, xi, eta)
     g = (x[0] - p_m[0]) * n[0] + (x[1] - p_m[1]) * n[1] + (x[2] - p_m[2]) * n[2]
     trial_p = lam_n - eps * g
-    closed = trial_p >= 0.0 if mode_p < 0 else mode_p == 1
-    p = trial_p if closed else 0.0
+    edge = -0.5 * width if width > 0.0 else 0.0
+    closed = trial_p >= edge if mode_p < 0 else mode_p == 1
+    p = ramp(trial_p, width) if closed else 0.0
     shear = np.zeros(3)
     slipping = False
     if mu > 0.0 and closed:
@@ -196,7 +214,7 @@ def pair_residual(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps,
 
 @numba.njit(cache=True)
 def pair_jacobian(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el,
-                  area, open_sides, kappa, out):
+                  area, open_sides, kappa, width, out):
     """Central-difference derivative (27, 27) of :func:`pair_residual` with respect to z.
 
     The positions are taken relative to the slave node (the residual depends on
@@ -210,16 +228,16 @@ def pair_jacobian(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps,
     rm = np.zeros(27)
     _g, _p, _s, closed, slipping, _f = pair_residual(
         zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el, area,
-        open_sides, kappa, rp)
+        open_sides, kappa, width, rp)
     mode_p, mode_t = int(closed), int(slipping)
     for k in range(27):
         zk = zp[k]
         zp[k] = zk + _H
         pair_residual(zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu,
-                      s_el, area, open_sides, kappa, rp, mode_p, mode_t)
+                      s_el, area, open_sides, kappa, width, rp, mode_p, mode_t)
         zp[k] = zk - _H
         pair_residual(zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu,
-                      s_el, area, open_sides, kappa, rm, mode_p, mode_t)
+                      s_el, area, open_sides, kappa, width, rm, mode_p, mode_t)
         zp[k] = zk
         for i in range(27):
             out[i, k] = (rp[i] - rm[i]) / (2.0 * _H)

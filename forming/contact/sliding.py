@@ -117,6 +117,7 @@ class SlidingTerm:
         self.force = np.zeros((n, 3))  # force on each slave node [N]
         self.spring = np.zeros((n, 3))  # stabilising force on each slave node [N]
         self.kappa = spec.stabilisation * self.penalty
+        self.width = spec.smoothing * self.penalty * self.tolerance  # pressure ramp [MPa]
         # the master point each slave node starts on (its total slip is measured from it)
         self._start = np.zeros(n, dtype=np.int64)
         self._start_xi = np.zeros((n, 2))
@@ -227,7 +228,7 @@ class SlidingTerm:
                          self.facet, self.xi, self.hist, self.hist_xi, self.touched, self.rel,
                          self.lam_n, self.lam_t, self.node_normal, self.master.open_sides,
                          self.area, self.penalty, self.friction, self.elastic_slip,
-                         self.kappa, sp is not None, ptr, offsets, phi, pfacet, pxi,
+                         self.kappa, self.width, sp is not None, ptr, offsets, phi, pfacet, pxi,
                          rows, values, self.gap, self.p_new, self.shear, self.force,
                          self.spring)
         keep = rows[:n] >= 0  # (a vector does not skip negative indices as a matrix does)
@@ -265,7 +266,7 @@ class SlidingTerm:
                      self.facet, self.xi, self.hist, self.hist_xi, self.touched, self.rel,
                      self.lam_n, self.lam_t, self.node_normal, self.master.open_sides,
                      self.area, self.penalty, self.friction, self.elastic_slip, self.kappa,
-                     self.spreading is not None, ptr, offsets, phi, pfacet, pxi,
+                     self.width, self.spreading is not None, ptr, offsets, phi, pfacet, pxi,
                      row_at, col_at, val_at, rows, cols, values)
         rows = rows.astype(PETSc.IntType)
         cols = cols.astype(PETSc.IntType)
@@ -306,13 +307,24 @@ class SlidingTerm:
         lo = self.comm.allreduce(float(p.min()) if p.size else np.inf, op=MPI.MIN)
         return lo, self._max(p)
 
+    def _sharp(self) -> np.ndarray:
+        """The unsmoothed pressure ``max(0, lambda_N - eps g)`` of the last evaluation.
+
+        The Uzawa update takes it even when the ramp is smoothed: its fixed point is then
+        exact complementarity, and the smoothing only changes the Newton iterates.
+        """
+        if self.width <= 0.0:
+            return self.p_new
+        g = np.where(self.inside & np.isfinite(self.gap), self.gap, np.inf)
+        return np.maximum(self.lam_n - self.penalty * g, 0.0)
+
     def violation(self) -> float:
         """Largest change of a normal multiplier over the penalty [mm]."""
-        return self._max(np.abs(self.p_new - self.lam_n)) / self.penalty
+        return self._max(np.abs(self._sharp() - self.lam_n)) / self.penalty
 
     def augment(self) -> None:
         """Uzawa update of the normal multipliers."""
-        self.lam_n[:] = self.p_new
+        self.lam_n[:] = self._sharp()
 
     def commit(self) -> None:
         """Accept the step: the touched master points and the shear become history."""

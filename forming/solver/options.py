@@ -29,7 +29,8 @@ class NewtonOptions:
             (5e-3 of the average force); it ends the slow tail that stick-slip switching
             of unloaded contact nodes causes. 0 switches it off.
         max_it: Newton iterations before a step counts as failed.
-        line_search: ``"basic"`` (full Newton step) or ``"bt"`` (backtracking).
+        line_search: ``"basic"`` (full Newton step), ``"bt"`` (backtracking) or ``"l2"``
+            (PETSc's secant minimisation of the residual norm along the Newton step).
         predictor: ``"extrapolate"`` (linear in the load parameter) or ``"previous"``.
         multipliers: How the contact multipliers converge. ``"newton"`` (default): inside
             the one Newton solve of a step, updated whenever the residual is within its
@@ -46,7 +47,7 @@ class NewtonOptions:
     atol: float = 1e-8
     force_rtol: float = 1e-4
     max_it: int = 25
-    line_search: Literal["basic", "bt"] = "basic"
+    line_search: Literal["basic", "bt", "l2"] = "basic"
     predictor: Literal["extrapolate", "previous"] = "extrapolate"
     multipliers: Literal["newton", "uzawa"] = "newton"
     max_augmentations: int = 25
@@ -56,8 +57,8 @@ class NewtonOptions:
         if self.linear_solver not in ("mumps", "gamg"):
             raise InputError("solver.linear_solver", f"must be 'mumps' or 'gamg', got "
                              f"{self.linear_solver!r}")
-        if self.line_search not in ("basic", "bt"):
-            raise InputError("solver.line_search", f"must be 'basic' or 'bt', got "
+        if self.line_search not in ("basic", "bt", "l2"):
+            raise InputError("solver.line_search", f"must be 'basic', 'bt' or 'l2', got "
                              f"{self.line_search!r}")
         if self.predictor not in ("extrapolate", "previous"):
             raise InputError("solver.predictor", f"must be 'extrapolate' or 'previous', got "
