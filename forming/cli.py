@@ -7,6 +7,8 @@ forming run CASE --restart DIR [--checkpoint-every N]   continue from DIR's chec
 forming run CASE --help                    every parameter of CASE
 forming compare CASE [--out DIR] [--set KEY=VALUE ...] [--reuse]
 forming drape CASE [--tool NAME] [--out DIR] [--set KEY=VALUE ...] [--spacing D] [--angle DEG]
+forming study CASE --vary KEY=V1,V2,... [--vary ...] [--metric NAME ...] [--set KEY=VALUE ...]
+                   [--reference finest|extrapolated|VALUE] [--jobs N] [--ranks R] --out DIR
 forming --version
 """
 
@@ -30,6 +32,7 @@ commands:
   run        run a case: forming run CASE --set KEY=VALUE (forming run CASE --help)
   compare    run a case with both solvers and compare them
   drape      kinematic drape (pin-jointed net) onto a tool of a case: shear-angle map
+  study      run a case over combinations of parameters: table, convergence, cost
 
 exit codes: 0 completed, 1 failed solve, 2 bad input, 3 file or folder error,
 4 internal error, 130 interrupted (SIGINT), 143 stopped (SIGTERM).
@@ -128,6 +131,59 @@ def _drape(args: argparse.Namespace) -> int:
     return 0
 
 
+def _study(args: argparse.Namespace) -> int:
+    from mpi4py import MPI
+
+    from forming.case import guarded
+    from forming.log import setup
+    from forming.study import parse_study, run_study
+    from forming.study_report import report
+
+    setup(quiet=args.quiet)
+    if MPI.COMM_WORLD.size > 1:
+        print("forming: run forming study without mpirun (--ranks R runs each case on R "
+              "ranks)", file=sys.stderr)
+        return 2
+
+    def run() -> dict:
+        study = parse_study(args.case, args.vary, args.out, args.assignments, args.metric,
+                            args.reference, args.jobs, args.ranks)
+        return report(study, run_study(study))
+
+    r, code = guarded(MPI.COMM_WORLD, run)
+    if code is not None:
+        return code
+    print(f"{args.case}: {r['completed']} of {r['runs']} runs completed "
+          f"({r['reused']} reused)")
+    for metric, found in r["convergence"].items():
+        for c in found:
+            print(f"  {metric} over {c['key']}: order {c['order']:.2f}, extrapolated "
+                  f"{c['extrapolated']:.6g}, GCI {100 * c['gci']:.2g}%")
+    print(f"report in {Path(r['md']).resolve()}")
+    return 0 if r["completed"] == r["runs"] else 1
+
+
+def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("case", help="case name (forming list)")
+    parser.add_argument("--vary", action="append", required=True, metavar="KEY=V1,V2,...",
+                        help="a varied parameter and its levels (repeatable: every "
+                             "combination runs); levels holding commas are separated by "
+                             "':' (cells=8,8,2:12,12,3)")
+    parser.add_argument("--metric", action="append", default=[], metavar="NAME",
+                        help="a summary.json metric to judge and plot (repeatable; "
+                             "default: every metric)")
+    parser.add_argument("--set", dest="assignments", action="append", default=[],
+                        metavar="KEY=VALUE", help="a parameter every run shares")
+    parser.add_argument("--reference", default="extrapolated",
+                        help="errors against: 'extrapolated' (Richardson, else the finest "
+                             "run), 'finest', or a number")
+    parser.add_argument("--jobs", type=int, default=1, help="runs at a time")
+    parser.add_argument("--ranks", type=int, default=1, help="MPI ranks per run")
+    parser.add_argument("--out", type=Path, required=True,
+                        help="the study's folder (runs already in it are reused)")
+    parser.add_argument("--quiet", action="store_true", help="warnings and errors only")
+
+
 def _point(name: str, text: str | None) -> tuple[float, float, float] | None:
     """``X,Y,Z`` as three floats (None stays None)."""
     from forming.errors import InputError
@@ -195,7 +251,13 @@ def main(argv: list[str] | None = None) -> None:
     drape = sub.add_parser("drape", help="kinematic drape onto a tool of a case "
                                          "(shear-angle map, drape.json, drape.vtu)")
     _add_drape_arguments(drape)
+    _add_study_arguments(sub.add_parser(
+        "study", help="run a case over combinations of parameters (study.csv, study.md)"))
     args, extra = parser.parse_known_args(argv)
+    if args.command == "study":
+        if extra:
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        raise SystemExit(_study(args))
     if args.command == "drape":
         if extra:
             parser.error(f"unrecognized arguments: {' '.join(extra)}")

@@ -201,8 +201,12 @@ class Recorder:
 
 
 def plot_curves(path: Path, series: list[tuple[np.ndarray, np.ndarray, str, str]],
-                xlabel: str, ylabel: str, title: str) -> Path:
-    """Line plot of ``(x, y, label, style)`` series to a PNG (call on rank 0)."""
+                xlabel: str, ylabel: str, title: str, logx: bool = False,
+                logy: bool = False) -> Path:
+    """Line plot of ``(x, y, label, style)`` series to a PNG (call on rank 0).
+
+    A label ``"_"`` keeps a series out of the legend; ``logx``/``logy``: log axes.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -211,6 +215,10 @@ def plot_curves(path: Path, series: list[tuple[np.ndarray, np.ndarray, str, str]
     fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
     for x, y, label, style in series:
         ax.plot(x, y, style, label=label, markersize=3)
+    if logx:
+        ax.set_xscale("log")
+    if logy:
+        ax.set_yscale("log")
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title)

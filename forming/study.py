@@ -1,0 +1,226 @@
+"""Parameter studies: one case run over combinations of parameters, tabulated and judged.
+
+``forming study CASE --vary KEY=V1,V2,... --metric NAME --out DIR`` runs the case once
+per combination of the varied values (the Cartesian product of every ``--vary``), each in
+its own folder under ``DIR/runs`` with its usual outputs, as separate processes (``--jobs``
+at a time, each on ``--ranks`` ranks). A run already in ``DIR`` with the same settings is
+not run again, so a study can be resumed or extended by a level. A run that fails is a row
+with its status. The table, the convergence judgement and the plots are
+:mod:`forming.study_report`'s.
+
+Values: ``KEY=1,2,4`` varies a scalar; a value that holds commas itself (a tuple such as
+``cells``) separates its levels by ``:`` (``cells=8,8,2:12,12,3:16,16,4``).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import logging
+import os
+import re
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from forming.case import find_case, load_case
+from forming.errors import InputError
+
+log = logging.getLogger("forming.study")
+
+FIXED_COLUMNS = ("status", "wall_s", "steps", "newton_iterations", "unknowns", "peak_rss_mb")
+
+
+@dataclass(frozen=True)
+class Vary:
+    """One varied parameter and its levels (as given on the command line)."""
+
+    key: str
+    values: tuple[str, ...]
+
+    @classmethod
+    def parse(cls, text: str) -> Vary:
+        """``KEY=V1,V2,...``, or ``KEY=A:B:...`` when a level holds commas.
+
+        Raises:
+            InputError: No ``=``, an empty key, or fewer than one level.
+        """
+        key, sep, rest = text.partition("=")
+        key = key.strip()
+        if not sep or not key or not rest.strip():
+            raise InputError("--vary", f"expected KEY=V1,V2,... got {text!r}")
+        values = tuple(v.strip() for v in rest.split(":" if ":" in rest else ","))
+        if any(not v for v in values):
+            raise InputError("--vary", f"an empty level in {text!r}")
+        if len(set(values)) != len(values):
+            raise InputError("--vary", f"a level given twice in {text!r}")
+        return cls(key, values)
+
+
+@dataclass(frozen=True)
+class Study:
+    """What to run and what to record.
+
+    Attributes:
+        case: The case's name (``forming list``).
+        varies: The varied parameters; every combination is one run.
+        out: The study's folder.
+        sets: ``KEY=VALUE`` settings every run shares.
+        metrics: ``summary.json`` metrics to tabulate, judge and plot.
+        reference: What the error is measured against: a number, ``"finest"`` (the run
+            with the most unknowns, or the last level) or ``"extrapolated"`` (Richardson,
+            falling back to the finest when the levels do not allow it).
+        jobs: Runs at a time.
+        ranks: MPI ranks per run.
+    """
+
+    case: str
+    varies: tuple[Vary, ...]
+    out: Path
+    sets: tuple[str, ...] = ()
+    metrics: tuple[str, ...] = ()
+    reference: str = "extrapolated"
+    jobs: int = 1
+    ranks: int = 1
+
+    def __post_init__(self) -> None:
+        find_case(self.case)  # raises InputError naming the known cases
+        if not self.varies:
+            raise InputError("--vary", "give at least one KEY=V1,V2,...")
+        keys = [v.key for v in self.varies]
+        if len(set(keys)) != len(keys):
+            raise InputError("--vary", f"a parameter varied twice: {keys}")
+        fixed = {s.partition("=")[0].strip() for s in self.sets}
+        if fixed & set(keys):
+            raise InputError("--set", f"{sorted(fixed & set(keys))} both set and varied")
+        known = {f for f in load_case(self.case).Params.__dataclass_fields__}
+        for key in keys:
+            if key.split(".")[0] not in known and not key.startswith(("newton.", "explicit.")):
+                raise InputError("--vary", f"{self.case} has no parameter {key!r}")
+        if self.jobs < 1 or self.ranks < 1:
+            raise InputError("--jobs/--ranks", "must be at least 1")
+        if self.reference not in ("finest", "extrapolated"):
+            try:
+                float(self.reference)
+            except ValueError:
+                raise InputError("--reference", "a number, 'finest' or 'extrapolated', "
+                                 f"got {self.reference!r}") from None
+
+    def combinations(self) -> list[dict[str, str]]:
+        """Every combination of the varied levels, in the order given."""
+        keys = [v.key for v in self.varies]
+        return [dict(zip(keys, c, strict=True))
+                for c in itertools.product(*(v.values for v in self.varies))]
+
+
+@dataclass
+class Row:
+    """One run of a study: its varied values and what it measured."""
+
+    values: dict[str, str]
+    folder: Path
+    status: str = "not run"
+    reason: str = ""
+    wall_s: float = float("nan")
+    steps: int = 0
+    newton_iterations: int = 0
+    unknowns: int = 0
+    peak_rss_mb: float = float("nan")
+    metrics: dict[str, float] = field(default_factory=dict)
+    reused: bool = False
+
+    def fill(self, summary: dict) -> None:
+        """Take the run's figures from its ``summary.json``."""
+        timing = summary.get("timing", {}) or {}
+        self.status = summary.get("status", "unknown")
+        self.reason = summary.get("reason", "") or ""
+        self.wall_s = float(timing.get("wall_s", float("nan")))
+        self.steps = int(timing.get("steps", 0) or 0)
+        self.newton_iterations = int(timing.get("newton_iterations", timing.get("work", 0))
+                                     or 0)
+        self.unknowns = int((summary.get("mesh") or {}).get("dofs", 0) or 0)
+        self.peak_rss_mb = float(timing.get("peak_rss_mb", float("nan")))
+        self.metrics = {k: float(v) for k, v in (summary.get("metrics") or {}).items()
+                        if isinstance(v, (int, float)) and not isinstance(v, bool)}
+
+
+def folder_name(values: dict[str, str]) -> str:
+    """A run's folder: its varied values, filesystem-safe (``cells-8-8-2_max_step-0.01``)."""
+    parts = [f"{k}-{v}" for k, v in values.items()]
+    return re.sub(r"[^A-Za-z0-9._-]+", "-", "_".join(parts))
+
+
+def _assignments(study: Study, values: dict[str, str]) -> list[str]:
+    return list(study.sets) + [f"{k}={v}" for k, v in values.items()]
+
+
+def _reusable(folder: Path, assignments: list[str]) -> dict | None:
+    """The summary of a finished run in ``folder`` with these settings, if any."""
+    path = folder / "summary.json"
+    if not path.is_file():
+        return None
+    try:
+        summary = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError):
+        return None
+    if sorted(summary.get("assignments") or []) != sorted(assignments):
+        return None
+    return summary if summary.get("status") in ("completed", "failed") else None
+
+
+def command(study: Study, folder: Path, assignments: list[str]) -> list[str]:
+    """The command line of one run (``mpirun -n R`` in front with several ranks)."""
+    cmd = [sys.executable, str(find_case(study.case)), "--out", str(folder), "--quiet"]
+    for a in assignments:
+        cmd += ["--set", a]
+    if study.ranks > 1:
+        cmd = [str(Path(sys.executable).parent / "mpirun"), "-n", str(study.ranks)] + cmd
+    return cmd
+
+
+def run_one(study: Study, values: dict[str, str]) -> Row:
+    """Run (or reuse) one combination; never raises for a failed run."""
+    folder = study.out / "runs" / folder_name(values)
+    row = Row(values, folder)
+    assignments = _assignments(study, values)
+    summary = _reusable(folder, assignments)
+    if summary is not None:
+        row.fill(summary)
+        row.reused = True
+        log.info("study: %s reused (%s)", folder.name, row.status)
+        return row
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    t0 = time.perf_counter()
+    log.info("study: %s started", folder.name)
+    with open(study.out / "runs" / f"{folder.name}.log", "w") as stream:
+        proc = subprocess.run(command(study, folder, assignments), env=env, stdout=stream,
+                              stderr=subprocess.STDOUT, text=True)
+    try:
+        row.fill(json.loads((folder / "summary.json").read_text()))
+    except (OSError, json.JSONDecodeError):
+        row.status = "error"
+        row.reason = f"exit code {proc.returncode}, no summary.json (see {folder.name}.log)"
+        row.wall_s = time.perf_counter() - t0
+    log.info("study: %s %s in %.1f s", folder.name, row.status, time.perf_counter() - t0)
+    return row
+
+
+def run_study(study: Study) -> list[Row]:
+    """Every combination, ``jobs`` at a time, in the order of :meth:`Study.combinations`."""
+    study.out.mkdir(parents=True, exist_ok=True)
+    combos = study.combinations()
+    with ThreadPoolExecutor(max_workers=study.jobs) as pool:
+        return list(pool.map(lambda v: run_one(study, v), combos))
+
+
+def parse_study(case: str, vary: Sequence[str], out: Path, sets: Sequence[str] = (),
+                metrics: Sequence[str] = (), reference: str = "extrapolated",
+                jobs: int = 1, ranks: int = 1) -> Study:
+    """A :class:`Study` from command-line strings."""
+    return Study(case, tuple(Vary.parse(v) for v in vary), Path(out), tuple(sets),
+                 tuple(metrics), reference, jobs, ranks)

@@ -1,0 +1,117 @@
+"""Parameter studies (``forming study``) and the convergence judgement they rely on."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from forming.errors import InputError
+from forming.post.convergence import (
+    convergence_kind,
+    extrapolate,
+    observed_order,
+    pareto_front,
+)
+from forming.study import Vary, folder_name, parse_study
+
+
+@pytest.mark.parametrize("h", [(1.0, 2.0, 4.0), (1.0, 1.3, 2.0), (0.5, 0.9, 1.0)])
+@pytest.mark.parametrize("p", [1.0, 2.0, 3.5])
+def test_richardson_recovers_an_exact_power_law(h, p):
+    """For ``f = 1 + 0.3 h^p`` on three sizes, equal or unequal ratios, the observed order
+    is ``p`` and the extrapolated value is 1, to 1e-9; the GCI of the finest level is
+    1.25 times its true relative error. A failure means the fixed point of Celik et al.
+    (2008) or the extrapolation formula is wrong."""
+    f = [1.0 + 0.3 * x ** p for x in h]
+    assert observed_order(h, f) == pytest.approx(p, abs=1e-9)
+    e = extrapolate(list(reversed(h)), list(reversed(f)))  # any order of levels
+    assert e.order == pytest.approx(p, abs=1e-9)
+    assert e.value == pytest.approx(1.0, abs=1e-9)
+    true_error = abs(f[0] - 1.0) / f[0]
+    assert e.gci == pytest.approx(1.25 * true_error, rel=1e-6)
+
+
+def test_richardson_refuses_what_it_cannot_judge():
+    """Oscillating or stalled levels, fewer than three levels, or equal sizes give no
+    extrapolation (None), and the order function raises instead of returning a number."""
+    assert convergence_kind([1.0, 1.1, 1.0]) == "oscillating"
+    assert convergence_kind([1.0, 1.0, 1.2]) == "converged"
+    assert extrapolate([1, 2, 4], [1.0, 1.1, 1.0]) is None
+    assert extrapolate([1, 2], [1.0, 1.1]) is None
+    assert extrapolate([1, 1, 2], [1.0, 1.1, 1.3]) is None
+    with pytest.raises(ValueError, match="oscillating"):
+        observed_order([1, 2, 4], [1.0, 1.1, 1.0])
+    with pytest.raises(ValueError, match="grow"):
+        observed_order([2, 1, 4], [1.0, 1.1, 1.3])
+
+
+def test_pareto_front():
+    """The front keeps the runs no other run beats in both cost and error, cheapest first."""
+    cost = [1.0, 2.0, 3.0, 4.0, 2.5]
+    error = [0.1, 0.05, 0.2, 0.01, 0.05]
+    assert pareto_front(cost, error) == [0, 1, 3]
+
+
+def test_vary_and_study_inputs(tmp_path):
+    """Levels split at ',' or, when they hold commas, at ':'; bad input names the option."""
+    assert Vary.parse("max_step=0.02,0.01").values == ("0.02", "0.01")
+    assert Vary.parse("cells=8,8,2:12,12,3").values == ("8,8,2", "12,12,3")
+    assert folder_name({"cells": "8,8,2", "max_step": "0.01"}) == "cells-8-8-2_max_step-0.01"
+    for bad in ("cells", "=1,2", "a=1,,2", "a=1,1"):
+        with pytest.raises(InputError, match="--vary"):
+            Vary.parse(bad)
+    with pytest.raises(InputError, match="unknown case"):
+        parse_study("no_such_case", ["a=1,2"], tmp_path)
+    with pytest.raises(InputError, match="no parameter 'thickness_of_nothing'"):
+        parse_study("ironing", ["thickness_of_nothing=1,2"], tmp_path)
+    with pytest.raises(InputError, match="both set and varied"):
+        parse_study("ironing", ["slide=10,20"], tmp_path, sets=["slide=5"])
+    with pytest.raises(InputError, match="--reference"):
+        parse_study("ironing", ["slide=10,20"], tmp_path, reference="best")
+
+
+def _study(out, levels):
+    cmd = [sys.executable, "-m", "forming.cli", "study", "ironing",
+           "--vary", f"block_element={levels}", "--set", "die_cells=16", "--set", "slide=8",
+           "--set", "max_step=0.05", "--metric", "normal_force_mean_N", "--out", str(out),
+           "--quiet"]
+    return subprocess.run(cmd, capture_output=True, text=True)
+
+
+def test_study_runs_reuses_and_reports_failures(tmp_path):
+    """``forming study ironing --vary block_element=4,3,2.5,-1`` on a short slide: the
+    three valid levels complete and the bad one (-1 mm) is a row with status ``error``
+    (the study goes on, exit code 1); ``study.csv``, ``study.md`` and the PNGs are written,
+    the normal force's order is observed over the three levels, and rerunning with one
+    more level runs that level only (the others are reused, their rows unchanged). The
+    representative size is the element size itself (the unknowns fall as it grows)."""
+    out = tmp_path / "study"
+    first = _study(out, "4,3,2.5,-1")
+    assert first.returncode == 1, first.stderr[-2000:]
+    rows = list(csv.DictReader(open(out / "study.csv")))
+    assert [r["status"] for r in rows] == ["completed"] * 3 + ["error"]
+    assert "block_element" in rows[3]["reason"] or "exit code 2" in rows[3]["reason"]
+    for name in ("study.md", "normal_force_mean_N.png",
+                 "error_vs_time_normal_force_mean_N.png"):
+        assert (out / name).is_file(), name
+    unknowns = [int(r["unknowns"]) for r in rows[:3]]
+    assert unknowns[0] < unknowns[1] < unknowns[2]
+    md = (out / "study.md").read_text()
+    assert "observed order" in md or "do not converge monotonically" in md
+
+    second = _study(out, "4,3,2.5,5")
+    assert second.returncode == 0, second.stderr[-2000:]
+    again = list(csv.DictReader(open(out / "study.csv")))
+    assert [r["reused"] for r in again] == ["True", "True", "True", "False"]
+    for a, b in zip(rows[:3], again[:3], strict=True):
+        assert a["normal_force_mean_N"] == b["normal_force_mean_N"]
+    s = json.loads((out / "runs" / "block_element-5" / "summary.json").read_text())
+    assert s["status"] == "completed"
+    forces = np.array([float(r["normal_force_mean_N"]) for r in again])
+    assert np.all(np.isfinite(forces)) and not math.isclose(forces[0], forces[3])
