@@ -33,7 +33,7 @@ RUNS: dict[str, tuple[str, list[str]]] = {
     "core_crushing": ("core_crushing", ["cells=4,4,2", "stroke=4"]),
     "hemisphere_holder": ("hemisphere", ["cells=6,6,2", "stroke=8", "blank_holder=true"]),
     "hemisphere_skins": ("hemisphere", ["cells=6,6,2", "stroke=6", "skins=true",
-                                        "blank_holder=true"]),
+                                        "skin_contact=small", "blank_holder=true"]),
     "picture_frame": ("picture_frame", ["cells=4,4,1", "shear_max_deg=40"]),
     "bias_extension": ("bias_extension", ["element=10", "shear_target_deg=30"]),
     "skin_sled": ("skin_sled", []),

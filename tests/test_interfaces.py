@@ -125,7 +125,8 @@ def test_hemisphere_skins_with_holder_full_stroke(tmp_path):
     into compression over the die radius, and they slide many millimetres over the core:
     a stall, an inverted element or a skin sinking into the core fails this test.
     """
-    s = run_case("hemisphere", tmp_path, ["skins=true", "blank_holder=true", "cells=8,8,2"])
+    s = run_case("hemisphere", tmp_path, ["skins=true", "skin_contact=small", "blank_holder=true",
+                                          "cells=8,8,2"])
     assert s["status"] == "completed", s["reason"]
     h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
     m = s["metrics"]

@@ -89,7 +89,7 @@ def test_multipliers_inside_newton_equal_uzawa(tmp_path):
     """
     from forming.case import run_case
 
-    sets = ["skins=true", "cells=4,4,1", "stroke=8", "max_step=0.05"]
+    sets = ["skins=true", "skin_contact=small", "cells=4,4,1", "stroke=8", "max_step=0.05"]
     runs = {m: run_case("hemisphere", tmp_path / m, [*sets, f"newton.multipliers={m}"])
             for m in ("uzawa", "newton")}
     assert all(s["status"] == "completed" for s in runs.values())
