@@ -27,7 +27,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from forming.case import find_case, load_case
+from forming.case import SOLVER_PREFIXES, find_case, load_case
 from forming.errors import InputError
 
 log = logging.getLogger("forming.study")
@@ -97,9 +97,9 @@ class Study:
         fixed = {s.partition("=")[0].strip() for s in self.sets}
         if fixed & set(keys):
             raise InputError("--set", f"{sorted(fixed & set(keys))} both set and varied")
-        known = {f for f in load_case(self.case).Params.__dataclass_fields__}
+        known = set(load_case(self.case).Params.__dataclass_fields__) | {"solver"}
         for key in keys:
-            if key.split(".")[0] not in known and not key.startswith(("newton.", "explicit.")):
+            if key not in known and not key.startswith(SOLVER_PREFIXES):
                 raise InputError("--vary", f"{self.case} has no parameter {key!r}")
         if self.jobs < 1 or self.ranks < 1:
             raise InputError("--jobs/--ranks", "must be at least 1")

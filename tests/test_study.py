@@ -70,6 +70,9 @@ def test_vary_and_study_inputs(tmp_path):
         parse_study("no_such_case", ["a=1,2"], tmp_path)
     with pytest.raises(InputError, match="no parameter 'thickness_of_nothing'"):
         parse_study("ironing", ["thickness_of_nothing=1,2"], tmp_path)
+    assert parse_study("ironing", ["solver=implicit,explicit", "newton.max_it=10,20"],
+                       tmp_path).combinations()[1] == {"solver": "implicit",
+                                                       "newton.max_it": "20"}
     with pytest.raises(InputError, match="both set and varied"):
         parse_study("ironing", ["slide=10,20"], tmp_path, sets=["slide=5"])
     with pytest.raises(InputError, match="--reference"):
