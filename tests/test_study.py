@@ -38,8 +38,9 @@ def test_richardson_recovers_an_exact_power_law(h, p):
 
 
 def test_richardson_refuses_what_it_cannot_judge():
-    """Oscillating or stalled levels, fewer than three levels, or equal sizes give no
-    extrapolation (None), and the order function raises instead of returning a number."""
+    """Oscillating, stalled or diverging levels, fewer than three levels, or equal sizes
+    give no extrapolation (None), and the order function raises instead of returning a
+    number."""
     assert convergence_kind([1.0, 1.1, 1.0]) == "oscillating"
     assert convergence_kind([1.0, 1.0, 1.2]) == "converged"
     assert extrapolate([1, 2, 4], [1.0, 1.1, 1.0]) is None
@@ -49,6 +50,11 @@ def test_richardson_refuses_what_it_cannot_judge():
         observed_order([1, 2, 4], [1.0, 1.1, 1.0])
     with pytest.raises(ValueError, match="grow"):
         observed_order([2, 1, 4], [1.0, 1.1, 1.3])
+    # monotonic, but changing more on the finer levels: no positive order fits (the fixed
+    # point with absolute values of Celik et al. returns one anyway)
+    with pytest.raises(ValueError, match="no positive order"):
+        observed_order([1, 2, 4], [1.0, 1.5, 1.7])
+    assert extrapolate([1, 2, 4], [1.0, 1.5, 1.7]) is None
 
 
 def test_pareto_front():

@@ -2,12 +2,13 @@
 
 The procedure of Celik et al. (2008, ASME J. Fluids Eng. 130, 078001), after Roache
 (1994): three solutions ``f1, f2, f3`` on representative sizes ``h1 < h2 < h3`` (finest
-first) with ratios ``r21 = h2 / h1`` and ``r32 = h3 / h2`` that need not be equal. The
-observed order ``p`` solves
+first) with ratios ``r21 = h2 / h1`` and ``r32 = h3 / h2`` that need not be equal. With
+``f = f0 + C h^p``, ``e21 = f2 - f1`` and ``e32 = f3 - f2``, the observed order ``p``
+solves
 
-    p = |ln|e32 / e21| + q(p)| / ln r21,   q(p) = ln((r21^p - s) / (r32^p - s)),
+    e32 / e21 = r21^p (r32^p - 1) / (r21^p - 1),
 
-with ``e21 = f2 - f1``, ``e32 = f3 - f2`` and ``s = sign(e32 / e21)``; the extrapolated
+(solved directly, see :func:`observed_order`); the extrapolated
 value is ``(r21^p f1 - f2) / (r21^p - 1)``, and the fine-grid convergence index
 ``1.25 |(f1 - f2) / f1| / (r21^p - 1)`` bounds the relative error of ``f1`` with about
 95% confidence when the solutions are in the asymptotic range. Only monotonic
@@ -55,14 +56,19 @@ def convergence_kind(f: Sequence[float]) -> str:
     return "monotonic" if e32 / e21 > 0.0 else "oscillating"
 
 
-def observed_order(h: Sequence[float], f: Sequence[float], iterations: int = 200) -> float:
+def observed_order(h: Sequence[float], f: Sequence[float]) -> float:
     """The observed order ``p`` for sizes ``h`` (finest first) and values ``f``.
 
-    Fixed-point iteration of Celik et al. (2008), exact in one step for a constant ratio.
+    Solves ``e32 / e21 = r21^p (r32^p - 1) / (r21^p - 1)`` for ``p > 0`` (the relation
+    behind Celik et al.'s fixed point, without its absolute values), by bisection on the
+    logarithm. The right-hand side grows from ``ln r32 / ln r21`` at ``p -> 0``, so a
+    ratio of differences at or below that has no positive order: the differences do not
+    shrink fast enough under refinement for the levels to be converging. (The fixed point
+    with absolute values returns a positive number there too.)
 
     Raises:
-        ValueError: The sizes are not strictly increasing, or the values do not converge
-            monotonically.
+        ValueError: The sizes are not strictly increasing, the values do not change
+            monotonically, or no positive order fits them.
     """
     h1, h2, h3 = h
     if not 0.0 < h1 < h2 < h3:
@@ -71,15 +77,26 @@ def observed_order(h: Sequence[float], f: Sequence[float], iterations: int = 200
         raise ValueError(f"no observed order: the values {tuple(f)} are "
                          f"{convergence_kind(f)}")
     r21, r32 = h2 / h1, h3 / h2
-    ratio = abs((f[2] - f[1]) / (f[1] - f[0]))
-    p = abs(math.log(ratio)) / math.log(r21)
-    for _ in range(iterations):
-        q = math.log((r21 ** p - 1.0) / (r32 ** p - 1.0)) if p > 0.0 else 0.0
-        new = abs(math.log(ratio) + q) / math.log(r21)
-        if abs(new - p) < 1e-12 * max(1.0, p):
-            return new
-        p = new
-    return p
+    target = math.log((f[2] - f[1]) / (f[1] - f[0]))
+
+    def g(p: float) -> float:  # log of the model's ratio of differences, increasing in p
+        return p * math.log(r21) + math.log(math.expm1(p * math.log(r32))
+                                            / math.expm1(p * math.log(r21)))
+
+    lo, hi = 1e-9, 1.0
+    if target <= g(lo):
+        raise ValueError(f"no positive order: the values {tuple(f)} change more on the "
+                         "finer levels than a converging sequence can")
+    while g(hi) < target:
+        hi *= 2.0
+        if hi > 1e3:
+            raise ValueError(f"no finite order fits the values {tuple(f)}")
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if g(mid) < target else (lo, mid)
+        if hi - lo < 1e-13 * hi:
+            break
+    return 0.5 * (lo + hi)
 
 
 def extrapolate(h: Sequence[float], f: Sequence[float]) -> Extrapolation | None:
@@ -91,7 +108,7 @@ def extrapolate(h: Sequence[float], f: Sequence[float]) -> Extrapolation | None:
 
     Returns:
         None when fewer than three levels are given or the three finest do not converge
-        monotonically.
+        monotonically (oscillating, or changing more on the finer levels).
     """
     if len(h) < 3:
         return None
@@ -100,7 +117,10 @@ def extrapolate(h: Sequence[float], f: Sequence[float]) -> Extrapolation | None:
     fs = [b for _, b in levels]
     if len(set(hs)) < 3 or convergence_kind(fs) != "monotonic":
         return None
-    p = observed_order(hs, fs)
+    try:
+        p = observed_order(hs, fs)
+    except ValueError:  # monotonic, but not converging
+        return None
     r21 = hs[1] / hs[0]
     gain = r21 ** p - 1.0
     value = (r21 ** p * fs[0] - fs[1]) / gain
