@@ -117,13 +117,13 @@ class Study:
                 for c in itertools.product(*(v.values for v in self.varies))]
 
 
-@dataclass
+@dataclass(frozen=True)
 class Row:
     """One run of a study: its varied values and what it measured."""
 
     values: dict[str, str]
     folder: Path
-    status: str = "not run"
+    status: str
     reason: str = ""
     wall_s: float = float("nan")
     steps: int = 0
@@ -133,19 +133,20 @@ class Row:
     metrics: dict[str, float] = field(default_factory=dict)
     reused: bool = False
 
-    def fill(self, summary: dict) -> None:
-        """Take the run's figures from its ``summary.json``."""
-        timing = summary.get("timing", {}) or {}
-        self.status = summary.get("status", "unknown")
-        self.reason = summary.get("reason", "") or ""
-        self.wall_s = float(timing.get("wall_s", float("nan")))
-        self.steps = int(timing.get("steps", 0) or 0)
-        self.newton_iterations = int(timing.get("newton_iterations", timing.get("work", 0))
-                                     or 0)
-        self.unknowns = int((summary.get("mesh") or {}).get("dofs", 0) or 0)
-        self.peak_rss_mb = float(timing.get("peak_rss_mb", float("nan")))
-        self.metrics = {k: float(v) for k, v in (summary.get("metrics") or {}).items()
-                        if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    @classmethod
+    def from_summary(cls, values: dict[str, str], folder: Path, summary: dict,
+                     reused: bool = False) -> Row:
+        """The row of a run that wrote its ``summary.json``."""
+        timing = summary.get("timing") or {}
+        return cls(
+            values, folder, summary.get("status", "unknown"), summary.get("reason") or "",
+            float(timing.get("wall_s", float("nan"))), int(timing.get("steps") or 0),
+            int(timing.get("newton_iterations", timing.get("work")) or 0),
+            int((summary.get("mesh") or {}).get("dofs") or 0),
+            float(timing.get("peak_rss_mb", float("nan"))),
+            {k: float(v) for k, v in (summary.get("metrics") or {}).items()
+             if isinstance(v, (int, float)) and not isinstance(v, bool)},
+            reused)
 
 
 def folder_name(values: dict[str, str]) -> str:
@@ -158,18 +159,14 @@ def _assignments(study: Study, values: dict[str, str]) -> list[str]:
     return list(study.sets) + [f"{k}={v}" for k, v in values.items()]
 
 
-def _reusable(folder: Path, assignments: list[str]) -> dict | None:
-    """The summary of a finished run in ``folder`` with these settings, if any."""
-    path = folder / "summary.json"
-    if not path.is_file():
-        return None
+def _summary(folder: Path, assignments: list[str]) -> dict | None:
+    """The ``summary.json`` in ``folder`` if it is of a run with these settings."""
     try:
-        summary = json.loads(path.read_text())
+        summary = json.loads((folder / "summary.json").read_text())
     except (OSError, json.JSONDecodeError):
         return None
-    if sorted(summary.get("assignments") or []) != sorted(assignments):
-        return None
-    return summary if summary.get("status") in ("completed", "failed") else None
+    same = sorted(summary.get("assignments") or []) == sorted(assignments)
+    return summary if same else None
 
 
 def command(study: Study, folder: Path, assignments: list[str]) -> list[str]:
@@ -185,14 +182,11 @@ def command(study: Study, folder: Path, assignments: list[str]) -> list[str]:
 def run_one(study: Study, values: dict[str, str]) -> Row:
     """Run (or reuse) one combination; never raises for a failed run."""
     folder = study.out / "runs" / folder_name(values)
-    row = Row(values, folder)
     assignments = _assignments(study, values)
-    summary = _reusable(folder, assignments)
-    if summary is not None:
-        row.fill(summary)
-        row.reused = True
-        log.info("study: %s reused (%s)", folder.name, row.status)
-        return row
+    summary = _summary(folder, assignments)
+    if summary is not None and summary.get("status") in ("completed", "failed"):
+        log.info("study: %s reused (%s)", folder.name, summary["status"])
+        return Row.from_summary(values, folder, summary, reused=True)
     folder.parent.mkdir(parents=True, exist_ok=True)
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
     t0 = time.perf_counter()
@@ -200,12 +194,11 @@ def run_one(study: Study, values: dict[str, str]) -> Row:
     with open(study.out / "runs" / f"{folder.name}.log", "w") as stream:
         proc = subprocess.run(command(study, folder, assignments), env=env, stdout=stream,
                               stderr=subprocess.STDOUT, text=True)
-    try:
-        row.fill(json.loads((folder / "summary.json").read_text()))
-    except (OSError, json.JSONDecodeError):
-        row.status = "error"
-        row.reason = f"exit code {proc.returncode}, no summary.json (see {folder.name}.log)"
-        row.wall_s = time.perf_counter() - t0
+    # (a run refused before it cleared its folder leaves an older summary there)
+    summary = _summary(folder, assignments)
+    row = (Row.from_summary(values, folder, summary) if summary is not None else Row(
+        values, folder, "error", f"exit code {proc.returncode}, no summary.json of this "
+        f"run (see {folder.name}.log)", time.perf_counter() - t0))
     log.info("study: %s %s in %.1f s", folder.name, row.status, time.perf_counter() - t0)
     return row
 

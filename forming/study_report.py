@@ -65,7 +65,7 @@ class Convergence:
     result: Extrapolation | None
 
 
-def groups(study: Study, rows: list[Row], key: str) -> list[tuple[dict[str, str], list[Row]]]:
+def groups(rows: list[Row], key: str) -> list[tuple[dict[str, str], list[Row]]]:
     """The rows split by the values of the other varied parameters."""
     out: dict[tuple, list[Row]] = {}
     for r in rows:
@@ -78,7 +78,7 @@ def convergence(study: Study, rows: list[Row], metric: str) -> list[Convergence]
     """Every (varied parameter, group) of completed runs holding ``metric``."""
     found = []
     for vary in study.varies:
-        for fixed, members in groups(study, rows, vary.key):
+        for fixed, members in groups(rows, vary.key):
             done = [r for r in members if r.status == "completed" and metric in r.metrics]
             h = level_sizes(done, vary.key) if done else None
             result = (extrapolate(h, [r.metrics[metric] for r in done])
@@ -133,7 +133,7 @@ def write_csv(study: Study, rows: list[Row], metrics: list[str], path: Path) -> 
 
 def metric_plot(study: Study, rows: list[Row], metric: str, out: Path) -> Path:
     """``<metric>.png``: the metric at each level, with the extrapolated value if any."""
-    curves, title = [], metric
+    curves, title, xlabel = [], metric, "level"
     for c in convergence(study, rows, metric):
         if not c.rows:
             continue
@@ -231,7 +231,7 @@ def report(study: Study, rows: list[Row]) -> dict:
     out = study.out
     pngs: list[Path] = []
     for m in metrics:
-        if any(m in r.metrics for r in rows):
+        if any(m in r.metrics for r in rows if r.status == "completed"):
             pngs.append(metric_plot(study, rows, m, out))
             p = error_time_plot(study, rows, m, out)
             if p is not None:

@@ -315,8 +315,7 @@ class SlidingTerm:
         """
         if self.width <= 0.0:
             return self.p_new
-        g = np.where(self.inside & np.isfinite(self.gap), self.gap, np.inf)
-        return np.maximum(self.lam_n - self.penalty * g, 0.0)
+        return np.maximum(self.lam_n - self.penalty * self.gap, 0.0)  # (gap inf: not paired)
 
     def violation(self) -> float:
         """Largest change of a normal multiplier over the penalty [mm]."""
