@@ -1,4 +1,4 @@
-"""Helpers shared by the benchmarks: run a case as a process, update docs sections."""
+"""Helpers shared by the benchmarks: run a case as a process or a study, update docs."""
 
 from __future__ import annotations
 
@@ -41,6 +41,38 @@ def run_case_process(case: str, out: Path, ranks: int = 1, sets: tuple[str, ...]
     summary = json.loads((out / "summary.json").read_text())
     summary["process_s"] = elapsed
     return summary
+
+
+def study_runs(case: str, vary: dict[str, tuple], out: Path, sets: tuple[str, ...] = (),
+               ranks: int = 1, jobs: int = 1, metrics: tuple[str, ...] = ()
+               ) -> list[tuple[object, dict]]:
+    """Run ``case`` over every combination of ``vary`` as a ``forming study`` in ``out``.
+
+    Runs already in ``out`` with the same settings are reused (a benchmark can be resumed);
+    ``study.csv``, ``study.md`` and the study's PNGs (of ``metrics``, or of every metric)
+    are written there.
+
+    Returns:
+        (study row, the run's ``summary.json`` or {} if it wrote none) per combination, in
+        the order of the levels.
+    """
+    sys.path.insert(0, str(REPO))
+    from forming.study import parse_study, run_study
+    from forming.study_report import report
+
+    study = parse_study(case, [f"{k}={(':' if any(',' in str(v) for v in vals) else ',').join(
+        str(v) for v in vals)}" for k, vals in vary.items()], out, sets, metrics, "finest",
+        jobs, ranks)
+    rows = run_study(study)
+    report(study, rows)
+    pairs = []
+    for row in rows:
+        try:
+            summary = json.loads((row.folder / "summary.json").read_text())
+        except (OSError, json.JSONDecodeError):
+            summary = {}
+        pairs.append((row, summary))
+    return pairs
 
 
 def machine() -> str:

@@ -16,6 +16,8 @@ to it. Writes
 the chart ``docs/figures/accuracy_vs_time.png`` and the ``accuracy_vs_time`` section of
 docs/performance.md, which states which solver reaches 1% and 5% error sooner.
 
+Each series is a ``forming study`` in ``--work`` (``results/accuracy_vs_time``), one run at a
+time on one rank; a rerun reuses the finished runs (delete the folder to time afresh).
 Run alone (wall times): ``python benchmarks/accuracy_vs_time.py`` (about 15 minutes on one
 core; ``--quick`` for a 6 x 6 x 2 mesh and fewer points).
 """
@@ -25,11 +27,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
-from _report import REPO, machine, run_case_process, update_section
+from _report import REPO, machine, study_runs, update_section
 
 sys.path.insert(0, str(REPO))
 from forming.compare import force_differences, interval_means  # noqa: E402
@@ -114,6 +115,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="coarse mesh, fewer points")
     parser.add_argument("--json", type=Path, default=None, help="also write the raw rows")
+    parser.add_argument("--work", type=Path, default=REPO / "results" / "accuracy_vs_time",
+                        help="the studies' folder (runs already there are reused)")
     parser.add_argument("--replot", type=Path, default=None,
                         help="rewrite the chart and the section from a --json file")
     args = parser.parse_args()
@@ -129,69 +132,69 @@ def main() -> None:
     implicit_steps = (0.05, 0.02, 0.01) if args.quick else (0.05, 0.025, 0.01, 0.005)
     reference_step = implicit_steps[-1] / 4
     loading = (0.005, 0.01, 0.02) if args.quick else (0.005, 0.01, 0.02, 0.05)
-    scaled = ((0.05, 2.0),) if args.quick else ((0.05, 2.0), (0.05, 4.0))  # (time, dt factor)
+    scaled_time, factors = 0.05, ((2.0,) if args.quick else (2.0, 4.0))  # dt factors
+    work = args.work / ("quick" if args.quick else "full")
     rows: list[dict] = []
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        ref_out = tmp / "reference"
-        ref = run_case_process("hemisphere", ref_out, sets=(*base, f"max_step={reference_step}",
-                                                             f"min_step={reference_step / 100}"))
-        ref_curve = _curve(ref_out)
-        ref_crushed = ref["metrics"]["crushed_volume_mm3"]
-        natural_dt = None
+    (ref_row_, ref), = study_runs("hemisphere", {"max_step": (reference_step,)},
+                                  work / "reference", (*base, f"min_step={reference_step / 100}"))
+    if ref_row_.status != "completed":
+        sys.exit(f"the reference run did not complete: {ref_row_.reason}")
+    ref_curve = _curve(ref_row_.folder)
+    ref_crushed = ref["metrics"]["crushed_volume_mm3"]
 
-        def point(series: str, label: str, short: str, sets: tuple[str, ...],
-                  loading_time: float | None):
-            explicit = loading_time is not None
-            out = tmp / f"run{len(rows)}"
-            s = run_case_process("hemisphere", out, sets=(*base, *sets), allow_failure=True)
-            row = {"series": series, "solver": "explicit" if explicit else "implicit",
-                   "label": label, "short": short, "status": s["status"],
-                   "wall_s": s["timing"]["wall_s"], "error": float("nan"),
-                   "crushed_error": float("nan"), "work": (s["timing"].get("time_steps")
-                                                           if explicit else s["timing"]["steps"]),
-                   "ke_ie": s["metrics"].get("kinetic_to_internal_max", float("nan")),
-                   "mass_added": s["metrics"].get("mass_added_fraction", 0.0),
-                   "dt": s["timing"].get("stable_time_step_s", float("nan"))}
-            if s["status"] == "completed":
-                row["error"] = _error(ref_curve, _curve(out), loading_time)
-                row["crushed_error"] = s["metrics"]["crushed_volume_mm3"] / ref_crushed - 1
+    def series(name: str, key: str, values: tuple, sets: tuple[str, ...], label, short,
+               loading_time) -> list[dict]:
+        """One study: ``key`` over ``values``; a row per run (the chart's points)."""
+        out = []
+        for (row, s), v in zip(study_runs("hemisphere", {key: values}, work / name.replace(
+                ", ", "_").replace(" ", "_"), (*base, *sets)), values, strict=True):
+            explicit = "solver=explicit" in sets
+            timing, m = s.get("timing") or {}, s.get("metrics") or {}
+            r = {"series": name, "solver": "explicit" if explicit else "implicit",
+                 "label": label(v), "short": short(v), "status": row.status,
+                 "wall_s": row.wall_s, "error": float("nan"), "crushed_error": float("nan"),
+                 "work": timing.get("time_steps") if explicit else row.steps,
+                 "ke_ie": m.get("kinetic_to_internal_max", float("nan")),
+                 "mass_added": m.get("mass_added_fraction", 0.0),
+                 "dt": timing.get("stable_time_step_s", float("nan"))}
+            if row.status == "completed":
+                r["error"] = _error(ref_curve, _curve(row.folder),
+                                    loading_time(v) if explicit else None)
+                r["crushed_error"] = m["crushed_volume_mm3"] / ref_crushed - 1
             if not explicit:
-                row["short"] = f"{short} ({row['work']} steps)"
-            rows.append(row)
-            print(json.dumps(row), flush=True)
-            return s
+                r["short"] = f"{r['short']} ({r['work']} steps)"
+            print(json.dumps(r), flush=True)
+            out.append(r)
+        return out
 
-        for step in implicit_steps:
-            point("implicit", f"max_step {step}", f"max {step:g}",
-                  (f"max_step={step}",), None)
-        for tload in loading:
-            s = point("explicit", f"loading time {tload} s", f"{tload * 1e3:g} ms",
-                      ("solver=explicit", f"explicit.loading_time={tload}"), tload)
-            natural_dt = natural_dt or s["timing"]["stable_time_step_s"]
-        for tload, factor in scaled:
-            target = factor * natural_dt
-            point("explicit, mass scaled", f"loading time {tload} s, target dt {target:.3g} s "
-                  f"({factor:g}x)", f"{tload * 1e3:g} ms, dt x{factor:g}",
-                  ("solver=explicit", f"explicit.loading_time={tload}",
-                   f"explicit.target_time_step={target}"), tload)
-        # one-point elements with hourglass control (explicit.integration=reduced)
-        for tload in loading[-2:]:
-            point("explicit, reduced", f"reduced, loading time {tload} s",
-                  f"{tload * 1e3:g} ms, reduced",
-                  ("solver=explicit", f"explicit.loading_time={tload}",
-                   "explicit.integration=reduced"), tload)
-        for tload, factor in scaled:
-            target = factor * natural_dt
-            point("explicit, reduced, mass scaled",
-                  f"reduced, loading time {tload} s, target dt {target:.3g} s ({factor:g}x)",
-                  f"{tload * 1e3:g} ms, reduced, dt x{factor:g}",
-                  ("solver=explicit", f"explicit.loading_time={tload}",
-                   f"explicit.target_time_step={target}", "explicit.integration=reduced"),
-                  tload)
-        ref_row = {"wall_s": ref["timing"]["wall_s"], "steps": ref["timing"]["steps"],
-                   "force_max_N": float(np.max(ref_curve[1])), "crushed": ref_crushed,
-                   "max_step": reference_step}
+    rows += series("implicit", "max_step", implicit_steps, (), lambda v: f"max_step {v}",
+                   lambda v: f"max {v:g}", None)
+    explicit = series("explicit", "explicit.loading_time", loading, ("solver=explicit",),
+                      lambda v: f"loading time {v} s", lambda v: f"{v * 1e3:g} ms",
+                      lambda v: v)
+    rows += explicit
+    natural_dt = explicit[0]["dt"]
+    targets = tuple(f * natural_dt for f in factors)
+    scaled = ("solver=explicit", f"explicit.loading_time={scaled_time}")
+    rows += series("explicit, mass scaled", "explicit.target_time_step", targets, scaled,
+                   lambda v: f"loading time {scaled_time} s, target dt {v:.3g} s "
+                             f"({v / natural_dt:g}x)",
+                   lambda v: f"{scaled_time * 1e3:g} ms, dt x{v / natural_dt:g}",
+                   lambda v: scaled_time)
+    # one-point elements with hourglass control (explicit.integration=reduced)
+    reduced = ("solver=explicit", "explicit.integration=reduced")
+    rows += series("explicit, reduced", "explicit.loading_time", loading[-2:], reduced,
+                   lambda v: f"reduced, loading time {v} s", lambda v: f"{v * 1e3:g} ms, reduced",
+                   lambda v: v)
+    rows += series("explicit, reduced, mass scaled", "explicit.target_time_step", targets,
+                   (*scaled, "explicit.integration=reduced"),
+                   lambda v: f"reduced, loading time {scaled_time} s, target dt {v:.3g} s "
+                             f"({v / natural_dt:g}x)",
+                   lambda v: f"{scaled_time * 1e3:g} ms, reduced, dt x{v / natural_dt:g}",
+                   lambda v: scaled_time)
+    ref_row = {"wall_s": ref_row_.wall_s, "steps": ref_row_.steps,
+               "force_max_N": float(np.max(ref_curve[1])), "crushed": ref_crushed,
+               "max_step": reference_step}
     if args.json:
         args.json.write_text(json.dumps({"reference": ref_row, "rows": rows, "cells": cells,
                                          "quick": args.quick, "machine": machine()},

@@ -6,6 +6,7 @@
    The punch force of a crushing core oscillates as layers of elements collapse one after
    another, so the table gives the peak and the mean force over 2-10 mm of stroke; the
    mean is extrapolated to eta = 0 by a least-squares line through every converged eta.
+   A ``forming study`` in ``results/validate_crushing/eta`` (a rerun reuses its runs).
 
 Run: ``python benchmarks/validate_crushing.py`` (about 15 minutes on 2 cores).
 """
@@ -17,7 +18,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from _report import REPO, run_case_process, update_section
+from _report import REPO, run_case_process, study_runs, update_section
 
 ETAS = (0.2, 0.1, 0.05, 0.03, 0.02, 0.0)  # MPa mm (per mm of the 10 mm stroke)
 
@@ -67,12 +68,11 @@ def main() -> None:
                   "| mean force 2-10 mm [N] | mean vs eta -> 0 | crushed volume [mm^3] "
                   "| Newton/step | wall [s] |",
                   "|---|---|---|---|---|---|---|---|---|"]
-        study = []
-        for eta in ETAS:
-            out = tmp / f"e{eta}"
-            s = run_case_process("core_crushing", out, allow_failure=True,
-                                 sets=("cells=6,6,4", "max_step=0.05", f"viscosity={eta}"))
-            study.append((eta, s, _mean_force(out) if s["status"] == "completed" else None))
+        study = [(float(row.values["viscosity"]), s,
+                  _mean_force(row.folder) if row.status == "completed" else None)
+                 for row, s in study_runs("core_crushing", {"viscosity": ETAS},
+                                          REPO / "results" / "validate_crushing" / "eta",
+                                          ("cells=6,6,4", "max_step=0.05"))]
         done = sorted((e, f) for e, s, f in study if f is not None)
         exact = next((f for e, f in done if e == 0.0), None)
         if exact is None and len(done) >= 2:

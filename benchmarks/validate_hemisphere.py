@@ -5,7 +5,8 @@
    under the punch with the holder).
 2. The viscous regularisation's effect (coarse 12 x 12 x 3 mesh): eta from 2.5 MPa mm down
    to 0 where Newton still converges; the force extrapolated linearly to eta = 0 from the
-   two smallest eta, and each run's error against it.
+   two smallest eta, and each run's error against it. A ``forming study`` in
+   ``results/validate_hemisphere/eta`` (a rerun reuses its finished runs).
 
 Run: ``python benchmarks/validate_hemisphere.py`` (about 15 minutes on 2 cores).
 """
@@ -16,7 +17,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from _report import REPO, run_case_process, update_section
+from _report import REPO, run_case_process, study_runs, update_section
 
 FIG = REPO / "docs" / "figures"
 ETAS = (2.5, 1.0, 0.5, 0.15, 0.0)  # MPa mm (per mm of the 50 mm stroke: 0.05 ... 0)
@@ -80,13 +81,11 @@ def main() -> None:
                   "| blank holder | eta [MPa mm] | status | stroke [mm] | punch force max [N] "
                   "| error vs eta -> 0 | crushed volume [mm^3] | Newton/step | wall [s] |",
                   "|---|---|---|---|---|---|---|---|---|"]
+        runs = study_runs("hemisphere", {"blank_holder": (False, True), "viscosity": ETAS},
+                          REPO / "results" / "validate_hemisphere" / "eta", (COARSE,))
         for holder in (False, True):
-            study = []
-            for eta in ETAS:
-                s = run_case_process("hemisphere", tmp / f"e{holder}{eta}", allow_failure=True,
-                                     sets=(COARSE, f"blank_holder={holder}",
-                                           f"viscosity={eta}"))
-                study.append((eta, s))
+            study = [(float(row.values["viscosity"]), s) for row, s in runs
+                     if row.values["blank_holder"] == str(holder)]
             done = [(e, s["metrics"]["punch_force_max_N"]) for e, s in study
                     if s["status"] == "completed"]
             exact = next((f for e, f in done if e == 0.0), None)

@@ -5,8 +5,9 @@ its tools at the end of the stroke (``tool.offset(1)``), centred on the tool's p
 closest to the blank's centre (the centre of the origin cell). The tool's surface ends
 where the blank cannot reach: outside the blank's bounding box swept by the tools'
 travels (the hemisphere's punch ends at its equator, not down its shank); the net stops
-there. Writes ``drape.json``, ``shear_angle.png`` and ``drape.vtu`` (the net with its
-shear angles, for ParaView) into the output folder, on rank 0.
+there. Writes ``drape.json``, ``shear_angle.png``, ``drape.vtu`` (the net with its shear angles,
+for ParaView) and ``drape.npz`` (the net's arrays, :func:`write_npz`) into the output
+folder, on rank 0.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import numpy as np
 from forming.drape import Drape, DrapeSettings, ShapeSurface, drape, project
 from forming.errors import InputError
 
-DRAPE_FILES = ("drape.json", "drape.json.tmp", "shear_angle.png", "drape.vtu")
+DRAPE_FILES = ("drape.json", "drape.json.tmp", "shear_angle.png", "drape.vtu", "drape.npz")
 """What ``forming drape`` writes; a rerun into the same folder removes these first."""
 
 DEFAULT_ANGLE = -45.0
@@ -34,7 +35,8 @@ def blank_box(scene) -> tuple[np.ndarray, np.ndarray, float]:
     """The whole blank's bounding box (lower, upper corners) [mm] and in-plane element size.
 
     A quarter or half model is mirrored on its symmetry planes: an axis is mirrored when
-    the scene fixes that component on the ``xmin``/``ymin`` face lying at 0. The element
+    the scene fixes that component on the ``xmin``/``ymin`` face (``<body>_xmin`` of a
+    sandwich) lying at 0. The element
     size is the median spacing of the mesh's distinct x coordinates, at least 1/100 of the
     blank's larger in-plane side.
     """
@@ -43,7 +45,8 @@ def blank_box(scene) -> tuple[np.ndarray, np.ndarray, float]:
     x = scene.mesh.mesh.geometry.x
     lo, hi = x.min(axis=0), x.max(axis=0)
     for k, face in ((0, "xmin"), (1, "ymin")):
-        fixed = any(isinstance(d, Displacement) and d.region == face
+        # a sandwich's faces are named per body (``core_xmin``, ``skin_top_xmin``)
+        fixed = any(isinstance(d, Displacement) and d.region in (face, f"{d.body}_{face}")
                     and d.components() == [(k, 0.0)] for d in scene.displacements)
         if scene.symmetry_copies > 1 and fixed and abs(lo[k]) <= 1e-9 * max(hi[k], 1.0):
             lo[k] = -hi[k]
@@ -217,6 +220,22 @@ def write_vtu(result: Drape, path: Path, limits: tuple[float, float] = (42.0, -5
     return path
 
 
+def write_npz(result: Drape, path: Path) -> Path:
+    """The net's arrays (NaN where a node or cell was not placed), for scripts.
+
+    ``nodes`` (rows, columns, 3) [mm], ``flat_nodes`` (rows, columns, 2) [mm] (the net
+    before draping, through the start), ``node_shear`` (rows, columns) [deg],
+    ``cell_shear`` and ``cell_area`` (rows - 1, columns - 1) [deg, mm^2], and the settings
+    ``start``, ``spacing``, ``angle``, ``origin``.
+    """
+    st = result.settings
+    np.savez_compressed(path, nodes=result.nodes, flat_nodes=result.flat_nodes(),
+                        node_shear=result.node_shear, cell_shear=result.cell_shear,
+                        cell_area=result.cell_area, start=np.asarray(st.start),
+                        spacing=st.spacing, angle=st.angle, origin=np.asarray(st.origin))
+    return path
+
+
 def shear_picture(result: Drape, path: Path, title: str,
                   limits: tuple[float, float] = (42.0, -50.0), from_below: bool = False
                   ) -> Path:
@@ -311,7 +330,8 @@ def run_drape(case: str, sets: list[str], out: Path, tool: str | None = None,
              f"{st.angle + 90:g} deg")
     below = info["normal_at_start"][2] < 0
     outputs = [shear_picture(result, out / "shear_angle.png", title, limits, below).name,
-               write_vtu(result, out / "drape.vtu", limits).name]
+               write_vtu(result, out / "drape.vtu", limits).name,
+               write_npz(result, out / "drape.npz").name]
     record = summary(result, info, time.perf_counter() - t0, ["drape.json", *outputs])
     tmp = out / "drape.json.tmp"
     tmp.write_text(json.dumps(record, indent=2))

@@ -231,11 +231,16 @@ def plot_curves(path: Path, series: list[tuple[np.ndarray, np.ndarray, str, str]
 
 
 def write_final_shape(path: Path, bodies: dict, comm: MPI.Comm) -> Path:
-    """Write every body's nodal reference coordinates and displacements to an ``.npz``.
+    """Write every body's nodes, displacements and cell-wise results to an ``.npz``.
 
     Keys ``<body>_X`` and ``<body>_u`` hold (n, 3) arrays of the owned dofs of all ranks,
     sorted by reference coordinates so that two runs of the same mesh line up row by row
-    whatever the partition (``forming compare`` reads this file).
+    whatever the partition (``forming compare`` reads this file). A body with cell-wise
+    results (:meth:`~forming.bodies.base.DeformableBody.cell_fields`, e.g. a fabric's
+    shear angle) adds, per owned cell sorted by reference centroid: ``<body>_cell_X`` and
+    ``<body>_cell_x`` (reference and current centroid, the mean of its nodes, (m, 3)),
+    ``<body>_cell_volume`` (reference volume, the Jacobian at the centre: exact for
+    parallelepipeds) and ``<body>_cell_<field>`` (m,).
 
     Args:
         path: File to write (on rank 0).
@@ -243,20 +248,45 @@ def write_final_shape(path: Path, bodies: dict, comm: MPI.Comm) -> Path:
         comm: Communicator of the run (collective).
     """
     arrays: dict[str, np.ndarray] = {}
+
+    def gathered(key: str, parts: tuple[np.ndarray, ...]) -> None:
+        every = comm.gather(parts, root=0)
+        if comm.rank == 0:
+            cols = [np.concatenate([p[k] for p in every]) for k in range(len(parts))]
+            order = np.lexsort(np.round(cols[0], 9).T[::-1])
+            for name, col in zip(key.split(","), cols, strict=True):
+                arrays[name] = col[order]
+
     for name, body in bodies.items():
         n = body.V.dofmap.index_map.size_local
         bs = body.V.dofmap.index_map_bs
-        X = body.V.tabulate_dof_coordinates()[:n]
-        u = body.u.x.array[: n * bs].reshape(n, bs)
-        parts = comm.gather((X, u), root=0)
-        if comm.rank == 0:
-            X = np.concatenate([p[0] for p in parts])
-            u = np.concatenate([p[1] for p in parts])
-            order = np.lexsort(np.round(X, 9).T[::-1])
-            arrays[f"{name}_X"], arrays[f"{name}_u"] = X[order], u[order]
+        X = body.V.tabulate_dof_coordinates()
+        u = body.u.x.array.reshape(-1, bs)
+        gathered(f"{name}_X,{name}_u", (X[:n], u[:n]))
+        body.update_output()
+        fields = body.cell_fields()
+        if fields:
+            dofs = body.V.dofmap.list[body.cells[: body.n_local_cells]]
+            Xc, xc = X[dofs], (X + u)[dofs]
+            gathered(",".join([f"{name}_cell_X", f"{name}_cell_x", f"{name}_cell_volume"]
+                              + [f"{name}_cell_{k}" for k in fields]),
+                     (Xc.mean(axis=1), xc.mean(axis=1), hex_volumes(Xc), *fields.values()))
     if comm.rank == 0:
         np.savez_compressed(path, **arrays)
     return path
+
+
+def hex_volumes(corners: np.ndarray) -> np.ndarray:
+    """Volumes of hexahedra from their 8 corners in DOLFINx order, (m, 8, 3) -> (m,).
+
+    The Jacobian determinant at the centre of the unit cube (corner k at
+    ``(k & 1, k >> 1 & 1, k >> 2 & 1)``): exact for parallelepipeds.
+    """
+    c = corners
+    j = np.stack([(c[:, 1::2] - c[:, 0::2]).mean(axis=1),
+                  (c[:, [2, 3, 6, 7]] - c[:, [0, 1, 4, 5]]).mean(axis=1),
+                  (c[:, 4:] - c[:, :4]).mean(axis=1)], axis=2)
+    return np.abs(np.linalg.det(j))
 
 
 class FieldOutput:

@@ -22,6 +22,7 @@ import re
 import subprocess
 import sys
 import time
+import typing
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -43,8 +44,13 @@ class Vary:
     values: tuple[str, ...]
 
     @classmethod
-    def parse(cls, text: str) -> Vary:
+    def parse(cls, text: str, sequences: frozenset[str] = frozenset()) -> Vary:
         """``KEY=V1,V2,...``, or ``KEY=A:B:...`` when a level holds commas.
+
+        Args:
+            text: The command-line text.
+            sequences: Parameters whose values are tuples: their levels are separated by
+                ``:`` only, so ``cells=12,12,3`` is one level.
 
         Raises:
             InputError: No ``=``, an empty key, or fewer than one level.
@@ -53,7 +59,8 @@ class Vary:
         key = key.strip()
         if not sep or not key or not rest.strip():
             raise InputError("--vary", f"expected KEY=V1,V2,... got {text!r}")
-        values = tuple(v.strip() for v in rest.split(":" if ":" in rest else ","))
+        split = ":" if ":" in rest or key in sequences else ","
+        values = tuple(v.strip() for v in rest.split(split))
         if any(not v for v in values):
             raise InputError("--vary", f"an empty level in {text!r}")
         if len(set(values)) != len(values):
@@ -211,9 +218,17 @@ def run_study(study: Study) -> list[Row]:
         return list(pool.map(lambda v: run_one(study, v), combos))
 
 
+def tuple_parameters(case: str) -> frozenset[str]:
+    """The case's parameters whose values are tuples (``cells``)."""
+    hints = typing.get_type_hints(load_case(case).Params)
+    return frozenset(k for k, t in hints.items() if typing.get_origin(t) is tuple)
+
+
 def parse_study(case: str, vary: Sequence[str], out: Path, sets: Sequence[str] = (),
                 metrics: Sequence[str] = (), reference: str = "extrapolated",
                 jobs: int = 1, ranks: int = 1) -> Study:
     """A :class:`Study` from command-line strings."""
-    return Study(case, tuple(Vary.parse(v) for v in vary), Path(out), tuple(sets),
+    find_case(case)  # raises InputError naming the known cases
+    sequences = tuple_parameters(case)
+    return Study(case, tuple(Vary.parse(v, sequences) for v in vary), Path(out), tuple(sets),
                  tuple(metrics), reference, jobs, ranks)

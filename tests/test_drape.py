@@ -182,14 +182,25 @@ def test_bad_input_names_the_field():
     assert exc.value.field == "--spacing"
 
 
+def test_drape_of_the_sandwich_starts_at_the_punch_tip():
+    """With skins the blank's faces are named per body (core_xmin, skin_top_xmin, ...): the
+    quarter model is still mirrored, so the net starts at the punch's tip, not at the
+    quarter's centre (where it ran off the punch: 'no surface point ... from the start')."""
+    result, info = case_drape("hemisphere", ["skins=true", "cells=8,8,2"])
+    assert info["blank_box_mm"][0][:2] == pytest.approx([-150.0, -150.0])
+    assert info["net_centre_mm"][:2] == pytest.approx([0.0, 0.0], abs=1e-9)
+    lo, hi = result.shear_range()
+    assert result.placed > 30 and hi > 20 and lo == pytest.approx(-hi, abs=1e-6)
+
+
 def test_forming_drape_hemisphere_writes_map_fields_and_summary(tmp_path):
     """forming drape hemisphere: exit 0, drape.json (settings, shear range, wrinkling area
-    fraction, node count, wall time under 10 s), shear_angle.png and drape.vtu (quads with
-    the cell shear) in --out; the net is centred on the punch's tip (the origin cell's
-    centre) and covers the punch up to its equator (the blank cannot reach the shank),
-    with shear of both signs, antisymmetric to 1e-6 deg. A rerun replaces it; a folder
-    holding other files, and an unknown tool, exit 2 naming the field. A failure means the
-    command, its defaults or its output contract broke."""
+    fraction, node count, wall time under 10 s), shear_angle.png, drape.vtu (quads with
+    the cell shear) and drape.npz (the net's arrays) in --out; the net is centred on the
+    punch's tip (the origin cell's centre) and covers the punch up to its equator (the
+    blank cannot reach the shank), with shear of both signs, antisymmetric to 1e-6 deg.
+    A rerun replaces it; a folder holding other files, and an unknown tool, exit 2 naming
+    the field. A failure means the command, its defaults or its output contract broke."""
     out = tmp_path / "drape"
     for _ in range(2):  # the second run clears the first
         proc = run_python(["-m", "forming.cli", "drape", "hemisphere", "--out", str(out)],
@@ -206,6 +217,10 @@ def test_forming_drape_hemisphere_writes_map_fields_and_summary(tmp_path):
     assert 0 <= rec["area_fraction_beyond_limits"] < 0.1
     assert rec["wrinkling_limits_deg"] == [42.0, -50.0]
     assert (out / "shear_angle.png").stat().st_size > 20_000
+    with np.load(out / "drape.npz") as z:
+        assert z["node_shear"].shape == tuple(rec["settings"]["nodes"])
+        o = tuple(int(v) for v in z["origin"])
+        assert z["nodes"][o] == pytest.approx(start)
     mesh = meshio.read(out / "drape.vtu")
     shear = mesh.cell_data["shear_angle_deg"][0]
     assert len(shear) > 100 and np.isfinite(shear).all()

@@ -42,7 +42,8 @@ def test_fabric_jacobian_taylor(shear):
 
 def test_picture_frame_reproduces_input_curve(tmp_path):
     """Frame force vs shear angle reproduces the picture-frame input within 2% (RMS and
-    pointwise) from 5 to 55 deg in both directions; the ply shears uniformly."""
+    pointwise) from 5 to 55 deg in both directions; the ply shears uniformly (also in the
+    cell field of final_shape.npz)."""
     s = run_case("picture_frame", tmp_path, [])
     m = s["metrics"]
     assert s["status"] == "completed"
@@ -51,6 +52,13 @@ def test_picture_frame_reproduces_input_curve(tmp_path):
     assert m["shear_curve_max_err_rel_positive"] < 0.02
     assert m["shear_curve_max_err_rel_negative"] < 0.02
     assert m["shear_field_spread_deg"] < 1e-6
+    with np.load(tmp_path / "final_shape.npz") as z:  # the cell field kept for scripts
+        keys = [k for k in z.files if k.endswith("_cell_shear_angle_deg")]
+        assert len(keys) == 1
+        final = z[keys[0]]
+        body = keys[0].removesuffix("_cell_shear_angle_deg")
+        assert z[f"{body}_cell_X"].shape == (final.size, 3) and (z[f"{body}_cell_volume"] > 0).all()
+    assert np.ptp(final) < 1e-6 and abs(final[0]) <= 55.0 + 1e-9
     assert (tmp_path / "picture_frame.png").is_file()
     assert (tmp_path / "shear_angle.bp").is_dir()
 

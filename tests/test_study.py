@@ -65,9 +65,13 @@ def test_pareto_front():
 
 
 def test_vary_and_study_inputs(tmp_path):
-    """Levels split at ',' or, when they hold commas, at ':'; bad input names the option."""
+    """Levels split at ',' or, when they hold commas or the parameter is a tuple, at ':';
+    bad input names the option."""
     assert Vary.parse("max_step=0.02,0.01").values == ("0.02", "0.01")
     assert Vary.parse("cells=8,8,2:12,12,3").values == ("8,8,2", "12,12,3")
+    # a tuple parameter's single level keeps its commas
+    assert parse_study("hemisphere", ["cells=12,12,3"], tmp_path).varies[0].values == (
+        "12,12,3",)
     assert folder_name({"cells": "8,8,2", "max_step": "0.01"}) == "cells-8-8-2_max_step-0.01"
     for bad in ("cells", "=1,2", "a=1,,2", "a=1,1"):
         with pytest.raises(InputError, match="--vary"):

@@ -91,6 +91,12 @@ class DeformableBody(Protocol):
     def update_output(self) -> None:
         """Bring the output fields up to the converged state."""
 
+    def cell_fields(self) -> dict[str, np.ndarray]:
+        """Cell-wise results kept in ``final_shape.npz`` (name -> owned cells' values).
+
+        Call :meth:`update_output` first.
+        """
+
     def min_det_F(self) -> float:
         """Smallest Jacobian determinant over all ranks."""
 
@@ -175,6 +181,10 @@ class BodyBase:
                                 plastic_floor: float = 0.3):
         """None: the explicit solver assembles this body's internal forces from its form."""
         del integration, hourglass, density, plastic_floor
+
+    def cell_fields(self) -> dict[str, np.ndarray]:
+        """No cell-wise results in ``final_shape.npz``."""
+        return {}
 
     def nodal_coordinates(self) -> np.ndarray:
         """Reference coordinates of the owned displacement nodes, (n, 3)."""

@@ -110,6 +110,11 @@ class FabricBody(BodyBase):
         """ParaView fields besides the displacement: file stem -> functions."""
         return {"shear_angle": [self.shear_angle, self.wrinkling]}
 
+    def cell_fields(self) -> dict[str, np.ndarray]:
+        """The owned cells' shear angles [deg] (call :meth:`update_output` first)."""
+        dofs = self.shear_angle.function_space.dofmap.list[self.cells[: self.n_local_cells], 0]
+        return {"shear_angle_deg": self.shear_angle.x.array[dofs].copy()}
+
     def min_det_F(self) -> float:
         """Smallest Jacobian determinant at the cell centres, over all ranks."""
         values = self._detF_expr.eval(self.mesh, self.cells[: self.n_local_cells])

@@ -1,0 +1,227 @@
+"""The fidelity ladder of the hemisphere with skins: what each level of accuracy costs.
+
+`hemisphere` with skins and blank holder, from the cheapest model to the dearest:
+
+1. the kinematic drape onto the punch (``forming drape``, net spacing: the default mesh's
+   element size), timed as a process;
+2. the macro model, implicit, on the quarter meshes 12 x 12 x 3, 16 x 16 x 4 and the
+   default 20 x 20 x 4 (the reference, the finest FE result);
+3. the macro model, explicit, on 12 x 12 x 3;
+4. the meso model: not yet (issue 20).
+
+The FE runs are ``forming study`` runs on 2 ranks each, one at a time, in ``--work``
+(``results/fidelity_ladder``): a rerun reuses what is there. For every level: wall time,
+the top skin's shear range, the RMS difference of its shear field to the reference's
+(material point by material point, :mod:`forming.post.skinfield`; over the whole skin
+and over the part the drape covers, the skin on the punch), and the punch force's
+difference. The drape's difference by distance from the pole says where it stops being
+good enough. Writes docs/figures/fidelity_ladder.png (difference against wall time),
+fidelity_ladder_maps.png (the shear maps) and, with ``--write``, the ``fidelity_ladder``
+section of docs/performance.md.
+
+Run alone (wall times): ``python benchmarks/fidelity_ladder.py --write`` (about 40 minutes
+on 2 cores from nothing; seconds when the runs are in ``--work``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from _report import REPO, machine, study_runs, update_section
+
+sys.path.insert(0, str(REPO))
+from forming.post.skinfield import CellField, DrapeField, rms  # noqa: E402
+
+SETS = ("skins=true", "blank_holder=true")
+IMPLICIT = ("12,12,3", "16,16,4", "20,20,4")
+EXPLICIT = ("12,12,3",)
+METRICS = ("punch_force_max_N", "shear_min_deg_skin_top", "shear_max_deg_skin_top")
+SKIN = "skin_top"  # the skin on the punch (the drape's surface)
+BANDS = (0.0, 20.0, 40.0, 60.0, 80.0, 120.0)  # distance from the pole in the flat blank [mm]
+FIG = REPO / "docs" / "figures"
+
+
+@dataclass(frozen=True)
+class Level:
+    """One rung: its label, wall time, shear field source and punch force."""
+
+    label: str
+    wall_s: float
+    ranks: int
+    unknowns: int
+    field: CellField | DrapeField
+    shear_range: tuple[float, float]
+    force_N: float | None
+
+
+def drape_level(work: Path) -> Level:
+    out = work / "drape"
+    cmd = [str(Path(sys.executable).parent / "forming"), "drape", "hemisphere", "--out",
+           str(out)] + [a for s in SETS for a in ("--set", s)]
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=REPO)
+    wall = time.perf_counter() - t0
+    rec = json.loads((out / "drape.json").read_text())
+    field = DrapeField.from_drape_json(out)
+    return Level(f"kinematic drape, d = {rec['settings']['spacing']:.3g} mm", wall, 1, 0,
+                 field, (rec["node_shear_min_deg"], rec["node_shear_max_deg"]), None)
+
+
+def fe_levels(work: Path, solver: str, meshes: tuple[str, ...], ranks: int) -> list[Level]:
+    sets = SETS + ((f"solver={solver}",) if solver == "explicit" else ())
+    levels = []
+    for row, _summary in study_runs("hemisphere", {"cells": meshes}, work / solver, sets,
+                                    ranks, metrics=METRICS):
+        if row.status != "completed":
+            print(f"{solver} {row.values}: {row.status} ({row.reason})", file=sys.stderr)
+            continue
+        m = row.metrics
+        levels.append(Level(f"macro {solver}, {row.values['cells'].replace(',', ' x ')}",
+                            row.wall_s, ranks, row.unknowns, CellField.load(row.folder, SKIN),
+                            (m["shear_min_deg_skin_top"], m["shear_max_deg_skin_top"]),
+                            m["punch_force_max_N"]))
+    return levels
+
+
+def differences(levels: list[Level], ref: CellField) -> list[dict]:
+    """Each level against the reference at the reference's cell centres."""
+    drape = next(lv.field for lv in levels if isinstance(lv.field, DrapeField))
+    on_punch = np.isfinite(drape.at(ref.X))
+    radius = np.hypot(ref.X[:, 0], ref.X[:, 1])
+    rows = []
+    for lv in levels:
+        d = lv.field.at(ref.X) - ref.values
+        whole, cover = rms(d, ref.volume)
+        punch, _ = rms(np.where(on_punch, d, np.nan), ref.volume)
+        bands = [rms(np.where((radius >= a) & (radius < b), d, np.nan), ref.volume)[0]
+                 for a, b in zip(BANDS[:-1], BANDS[1:], strict=True)]
+        rows.append({"level": lv, "rms_deg": whole, "cover": cover, "rms_punch_deg": punch,
+                     "bands": bands, "d": d})
+    return rows
+
+
+def chart(rows: list[dict], ref_force: float, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
+    for r in rows:
+        lv = r["level"]
+        style = dict(marker="s" if lv.force_N is None else "o", ms=8)
+        axes[0].plot(lv.wall_s, max(r["rms_punch_deg"], 1e-2), **style, label=lv.label)
+        axes[0].annotate(lv.label, (lv.wall_s, max(r["rms_punch_deg"], 1e-2)), fontsize=8,
+                         xytext=(5, 5), textcoords="offset points")
+        if lv.force_N is not None:
+            e = abs(lv.force_N / ref_force - 1) * 100
+            axes[1].plot(lv.wall_s, max(e, 1e-2), **style, label=lv.label)
+            axes[1].annotate(lv.label, (lv.wall_s, max(e, 1e-2)), fontsize=8, xytext=(5, 5),
+                             textcoords="offset points")
+    axes[0].set_ylabel("RMS shear difference on the punch [deg]")
+    axes[1].set_ylabel("punch force difference [%]")
+    for ax in axes:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("wall time [s] (2 cores)")
+        ax.grid(True, which="both", alpha=0.3)
+    fig.suptitle("Hemisphere with skins and holder: each model against the implicit "
+                 "20 x 20 x 4 run (points at 0.01: the reference itself)", fontsize=11)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def maps(rows: list[dict], ref: CellField, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    xs, ys = np.unique(np.round(ref.X[:, 0], 6)), np.unique(np.round(ref.X[:, 1], 6))
+    ix, iy = np.searchsorted(xs, np.round(ref.X[:, 0], 6)), np.searchsorted(ys, np.round(
+        ref.X[:, 1], 6))
+    hx, hy = xs[1] - xs[0], ys[1] - ys[0]
+    ex = np.append(xs - hx / 2, xs[-1] + hx / 2)
+    ey = np.append(ys - hy / 2, ys[-1] + hy / 2)
+    fig, axes = plt.subplots(1, len(rows), figsize=(3.3 * len(rows), 3.8),
+                             layout="constrained", squeeze=False)
+    for ax, r in zip(axes[0], rows, strict=True):
+        grid = np.full((xs.size, ys.size), np.nan)
+        grid[ix, iy] = r["d"] + ref.values
+        pc = ax.pcolormesh(ex, ey, grid.T, cmap="coolwarm", vmin=-50, vmax=50)
+        ax.set_aspect("equal")
+        ax.set_title(r["level"].label, fontsize=8)
+        ax.set_xlabel("X [mm]")
+    axes[0][0].set_ylabel("Y [mm] (flat blank)")
+    fig.colorbar(pc, ax=axes[0].tolist(), shrink=0.8, label="top skin shear [deg]")
+    fig.suptitle("Top skin shear at the end of the stroke, by material point (quarter of the "
+                 "flat blank; on the reference's cells; blank: not covered)", fontsize=10)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def markdown(rows: list[dict], ref_level: Level) -> str:
+    ref_f = ref_level.force_N
+    lines = [
+        "`python benchmarks/fidelity_ladder.py --write`: `hemisphere --set skins=true --set "
+        f"blank_holder=true`, each finite-element run on 2 ranks, one at a time; {machine()}.",
+        "Reference: the implicit run on the default mesh (20 x 20 x 4). Shear differences are "
+        "taken material point by material point at the reference's top-skin cell centres "
+        "(`forming.post.skinfield`), volume-weighted; \"on the punch\" is the part of the "
+        "skin the drape covers.", "",
+        "| level | wall [s] | unknowns | top skin shear [deg] | RMS diff. whole skin [deg] "
+        "| RMS diff. on the punch [deg] | punch force [N] | force diff. |",
+        "|---|---:|---:|---|---:|---:|---:|---:|"]
+    for r in rows:
+        lv = r["level"]
+        whole = (f"{r['rms_deg']:.2f}" + (f" ({r['cover']:.0%} covered)" if r["cover"] < 0.999
+                                          else ""))
+        force = "-" if lv.force_N is None else f"{lv.force_N:.0f}"
+        fdiff = "-" if lv.force_N is None else f"{(lv.force_N / ref_f - 1):+.1%}"
+        lines.append(f"| {lv.label} | {lv.wall_s:.1f} | {lv.unknowns or '-'} | "
+                     f"{lv.shear_range[0]:.1f} to {lv.shear_range[1]:.1f} | {whole} | "
+                     f"{r['rms_punch_deg']:.2f} | {force} | {fdiff} |")
+    lines += ["| meso (cell walls) | not yet: issue 20 | | | | | | |", "",
+              "RMS shear difference to the reference by distance from the pole in the flat "
+              "blank [deg] (the punch's pole-to-equator arc is 78.5 mm):", "",
+              "| level | " + " | ".join(f"{a:.0f}-{b:.0f} mm" for a, b in
+                                        zip(BANDS[:-1], BANDS[1:], strict=True)) + " |",
+              "|---|" + "---:|" * (len(BANDS) - 1)]
+    for r in rows:
+        if r["level"] is ref_level:
+            continue
+        lines.append(f"| {r['level'].label} | " + " | ".join(
+            "-" if not np.isfinite(b) else f"{b:.2f}" for b in r["bands"]) + " |")
+    lines += ["", "![fidelity ladder](figures/fidelity_ladder.png)", "",
+              "![shear maps](figures/fidelity_ladder_maps.png)"]
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--work", type=Path, default=REPO / "results" / "fidelity_ladder")
+    parser.add_argument("--ranks", type=int, default=2)
+    parser.add_argument("--write", action="store_true", help="update docs/performance.md")
+    args = parser.parse_args()
+    levels = [drape_level(args.work),
+              *fe_levels(args.work, "implicit", IMPLICIT, args.ranks),
+              *fe_levels(args.work, "explicit", EXPLICIT, args.ranks)]
+    ref_level = next((lv for lv in levels if lv.label.startswith("macro implicit")
+                      and lv.label.endswith(IMPLICIT[-1].replace(",", " x "))), None)
+    if ref_level is None:
+        sys.exit("the reference run (implicit, 20 x 20 x 4) did not complete")
+    rows = differences(levels, ref_level.field)
+    FIG.mkdir(parents=True, exist_ok=True)
+    chart(rows, ref_level.force_N, FIG / "fidelity_ladder.png")
+    maps(rows, ref_level.field, FIG / "fidelity_ladder_maps.png")
+    text = markdown(rows, ref_level)
+    print(text)
+    if args.write:
+        update_section("fidelity_ladder", text)
+
+
+if __name__ == "__main__":
+    main()
