@@ -17,6 +17,7 @@ from forming.post.metrics import (
     crushing_depth,
     edge_draw_in,
     edge_lift,
+    force_mean,
     force_peak_final,
     hemisphere_metrics,
     interface_slip_at,
@@ -37,10 +38,11 @@ from forming.post.pictures import (
 from forming.post.plots import force_travel_plot, punch_force_plot
 
 __all__ = [
-    "InternalPower", "PlasticStrainField", "cell_mean_near", "contact_metrics", "crushed_volume",
-    "crushed_volume_probe", "crushing_depth", "deformed_grid", "edge_draw_in", "edge_lift",
-    "force_peak_final", "force_travel_plot", "hemisphere_metrics", "interface_slip_at",
-    "interface_slips", "nodal_gap_max", "plastic_field", "plastic_strain_extremes",
-    "plastic_strain_max", "plastic_strain_pictures", "punch_force_plot", "relative_rms",
-    "section_polygons", "shear_angle_picture", "skin_shear_statistics", "whole",
+    "InternalPower", "PlasticStrainField", "cell_mean_near", "contact_metrics",
+    "crushed_volume", "crushed_volume_probe", "crushing_depth", "deformed_grid", "edge_draw_in",
+    "edge_lift", "force_mean", "force_peak_final", "force_travel_plot", "hemisphere_metrics",
+    "interface_slip_at", "interface_slips", "nodal_gap_max", "plastic_field",
+    "plastic_strain_extremes", "plastic_strain_max", "plastic_strain_pictures",
+    "punch_force_plot", "relative_rms", "section_polygons", "shear_angle_picture",
+    "skin_shear_statistics", "whole",
 ]

@@ -34,6 +34,20 @@ def force_peak_final(rec, column: str, name: str = "punch_force") -> dict[str, f
     return {f"{name}_max_N": float(force.max()), f"{name}_final_N": float(force[-1])}
 
 
+def force_mean(rec, column: str, start: float, name: str = "punch_force") -> dict[str, float]:
+    """Mean force over the load parameter from ``start`` to the end [N] (trapezoid).
+
+    A crushing core's force oscillates as layers of elements collapse one after another;
+    its mean over the stroke converges where the peak does not. NaN if the run did not
+    get past ``start``.
+    """
+    t, f = rec.column("t"), rec.column(column)
+    keep = t >= start
+    if keep.sum() < 2:
+        return {f"{name}_mean_N": float("nan")}
+    return {f"{name}_mean_N": float(np.trapezoid(f[keep], t[keep]) / (t[keep][-1] - t[keep][0]))}
+
+
 def contact_metrics(rec, model) -> dict[str, float]:
     """Largest penetration over the run and the tightest tolerance of the scene's pairs."""
     return {

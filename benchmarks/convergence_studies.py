@@ -1,0 +1,161 @@
+"""Convergence studies of the shipped cases, run with ``forming study`` (issue 19, item 4).
+
+- ``hemisphere`` with skins and blank holder: mesh (12 x 12 x 3, 16 x 16 x 4, the default
+  20 x 20 x 4; the fidelity ladder's runs, reused) and load step (coarse mesh);
+- ``core_crushing``: mesh (4 x 4 x 3, the default 8 x 8 x 6, 12 x 12 x 9) and load step;
+- ``bias_extension``: the central shear angle against the element size.
+
+For each: the levels' metrics and wall times, the observed order and the Richardson value
+with its grid-convergence index where three levels converge monotonically (else why not),
+the default's error against that value (or, without one, its change from the next
+coarser level), and what the next finer level costs. Each study is a folder under
+``--work`` (``results/convergence``) with its ``study.md`` and plots; a rerun reuses the
+finished runs. Writes the ``convergence`` section of docs/validation.md with ``--write``.
+
+Run alone (wall times): ``python benchmarks/convergence_studies.py --write`` (about an hour
+on 2 cores from nothing).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from _report import REPO, machine, study_runs, update_section
+
+sys.path.insert(0, str(REPO))
+from forming.post.convergence import convergence_kind  # noqa: E402
+from forming.study import parse_study  # noqa: E402
+from forming.study_report import convergence  # noqa: E402
+
+HEMI = ("skins=true", "blank_holder=true")
+HEMI_METRICS = ("punch_force_max_N", "crushed_volume_mm3", "shear_max_deg_skin_top",
+                "shear_min_deg_skin_top")
+CRUSH_METRICS = ("punch_force_mean_N", "punch_force_max_N", "crushed_volume_mm3")
+
+
+@dataclass(frozen=True)
+class Spec:
+    """One study: a case, the varied parameter's levels (coarse to fine) and the default."""
+
+    title: str
+    case: str
+    key: str
+    levels: tuple[str, ...]
+    default: str
+    sets: tuple[str, ...]
+    metrics: tuple[str, ...]
+    folder: str
+    ranks: int = 2
+
+
+STUDIES = (
+    Spec("`hemisphere`, skins and holder: mesh", "hemisphere", "cells",
+         ("12,12,3", "16,16,4", "20,20,4"), "20,20,4", HEMI, HEMI_METRICS,
+         "../fidelity_ladder/implicit"),
+    Spec("`hemisphere`, skins and holder: load step (12 x 12 x 3)", "hemisphere", "max_step",
+         ("0.02", "0.01", "0.005"), "0.01", (*HEMI, "cells=12,12,3"), HEMI_METRICS,
+         "hemisphere_step"),
+    Spec("`core_crushing`: mesh", "core_crushing", "cells", ("4,4,3", "8,8,6", "12,12,9"),
+         "8,8,6", (), CRUSH_METRICS, "crushing_mesh"),
+    Spec("`core_crushing`: load step", "core_crushing", "max_step", ("0.2", "0.1", "0.05"),
+         "0.1", (), CRUSH_METRICS, "crushing_step"),
+    Spec("`bias_extension`: element size", "bias_extension", "element", ("5", "2.5", "1.25"),
+         "2.5", (), ("central_shear_final_deg", "central_shear_error_deg"), "bias_element",
+         ranks=1),
+)
+
+
+def _g(v: float) -> str:
+    return "-" if v is None or math.isnan(v) else f"{v:.5g}"
+
+
+def section(spec: Spec, work: Path) -> list[str]:
+    """Run (or reuse) one study and describe it."""
+    pairs = study_runs(spec.case, {spec.key: spec.levels}, work / spec.folder, spec.sets,
+                       spec.ranks, metrics=spec.metrics)
+    rows = [r for r, _ in pairs]
+    study = parse_study(spec.case, [f"{spec.key}={':'.join(spec.levels)}"],
+                        work / spec.folder, spec.sets, spec.metrics, "extrapolated", 1,
+                        spec.ranks)
+    lines = [f"### {spec.title}", "",
+             f"`forming study {spec.case} --vary {spec.key}={':'.join(spec.levels)}"
+             + "".join(f" --set {s}" for s in spec.sets) + f" --ranks {spec.ranks}`; "
+             f"default `{spec.key}={spec.default}`.", "",
+             f"| {spec.key} | status | wall [s] | unknowns | steps | "
+             + " | ".join(f"`{m}`" for m in spec.metrics) + " |",
+             "|---|---|---:|---:|---:|" + "---:|" * len(spec.metrics)]
+    for r in rows:
+        mark = " (default)" if r.values[spec.key] == spec.default else ""
+        lines.append(f"| {r.values[spec.key]}{mark} | {r.status} | {r.wall_s:.0f} | "
+                     f"{r.unknowns} | {r.steps} | "
+                     + " | ".join(_g(r.metrics.get(m, float("nan"))) for m in spec.metrics)
+                     + " |")
+    lines.append("")
+    done = {r.values[spec.key]: r for r in rows if r.status == "completed"}
+    default = done.get(spec.default)
+    order = list(spec.levels)
+    i = order.index(spec.default)
+    finer = done.get(order[i + 1]) if i + 1 < len(order) else None
+    coarser = done.get(order[i - 1]) if i > 0 else None
+    for m in spec.metrics:
+        conv = next(iter(convergence(study, rows, m)), None)
+        if conv is not None and conv.result is not None:
+            e = conv.result
+            head = (f"- `{m}`: observed order {e.order:.2f}, extrapolated {e.value:.5g} "
+                    f"+/- {e.uncertainty:.2g} (GCI {100 * e.gci:.2g}%)")
+            err = (abs(default.metrics[m] / e.value - 1) if default and e.value
+                   else float("nan"))
+            head += f"; the default is {err:.1%} from it"
+        else:
+            vals = [done[v].metrics[m] for v in order if v in done and m in done[v].metrics]
+            kind = convergence_kind(vals[::-1][:3]) if len(vals) >= 3 else "few"
+            why = {"oscillating": "the levels oscillate",
+                   "monotonic": "the differences do not shrink under refinement",
+                   "converged": "the finest levels agree to round-off",
+                   "few": "fewer than three levels completed"}[kind]
+            head = f"- `{m}`: no extrapolation ({why})"
+            if default and coarser and m in default.metrics and default.metrics[m]:
+                head += (f"; the default changes by "
+                         f"{abs(coarser.metrics[m] / default.metrics[m] - 1):.1%} from the "
+                         "next coarser level")
+        if default and finer and m in finer.metrics and finer.metrics[m]:
+            head += (f"; the next finer level changes it by "
+                     f"{abs(default.metrics[m] / finer.metrics[m] - 1):.1%}")
+        lines.append(head + ".")
+    if default and finer:
+        lines.append(f"- Cost: the next finer level takes {finer.wall_s / default.wall_s:.1f}x "
+                     f"the default's wall time ({finer.wall_s:.0f} s against "
+                     f"{default.wall_s:.0f} s).")
+    lines += ["", f"Folder: `{(work / spec.folder).resolve().relative_to(REPO)}` "
+              "(`study.md`, `study.csv`, plots).", ""]
+    return lines
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--work", type=Path, default=REPO / "results" / "convergence")
+    parser.add_argument("--only", nargs="+", default=None,
+                        help="study folders to run (default: all)")
+    parser.add_argument("--write", action="store_true", help="update docs/validation.md")
+    args = parser.parse_args()
+    lines = ["## Convergence of the shipped cases (issue 19)", "",
+             "`python benchmarks/convergence_studies.py --write`, each study a `forming study` "
+             f"with runs one at a time; {machine()}. Orders and extrapolated values where "
+             "three levels converge monotonically (Richardson with Roache's grid-convergence "
+             "index, safety factor 1.25); otherwise the table says why not, and the change "
+             "between levels stands in for the error.", ""]
+    for spec in STUDIES:
+        if args.only is None or spec.folder in args.only:
+            lines += section(spec, args.work)
+    text = "\n".join(lines)
+    print(text)
+    if args.write:
+        update_section("convergence", text, REPO / "docs" / "validation.md")
+
+
+if __name__ == "__main__":
+    main()
