@@ -166,6 +166,8 @@ def maps(rows: list[dict], ref: CellField, path: Path) -> Path:
 def markdown(rows: list[dict], ref_level: Level) -> str:
     ref_f = ref_level.force_N
     lines = [
+        "## The fidelity ladder: from a kinematic drape to the finite-element models "
+        "(issue 19)", "",
         "`python benchmarks/fidelity_ladder.py --write`: `hemisphere --set skins=true --set "
         f"blank_holder=true`, each finite-element run on 2 ranks, one at a time; {machine()}.",
         "Reference: the implicit run on the default mesh (20 x 20 x 4). Shear differences are "

@@ -12,6 +12,7 @@ import math
 import os
 import re
 import shutil
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -202,10 +203,11 @@ class Recorder:
 
 def plot_curves(path: Path, series: list[tuple[np.ndarray, np.ndarray, str, str]],
                 xlabel: str, ylabel: str, title: str, logx: bool = False,
-                logy: bool = False) -> Path:
+                logy: bool = False, notes: Sequence[tuple[float, float, str]] = ()) -> Path:
     """Line plot of ``(x, y, label, style)`` series to a PNG (call on rank 0).
 
-    A label ``"_"`` keeps a series out of the legend; ``logx``/``logy``: log axes.
+    A label ``"_"`` keeps a series out of the legend; ``logx``/``logy``: log axes;
+    ``notes``: ``(x, y, text)`` written next to points (a study's levels).
     """
     import matplotlib
 
@@ -215,6 +217,9 @@ def plot_curves(path: Path, series: list[tuple[np.ndarray, np.ndarray, str, str]
     fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
     for x, y, label, style in series:
         ax.plot(x, y, style, label=label, markersize=3)
+    for i, (x, y, text) in enumerate(notes):  # alternate above and below: close points
+        ax.annotate(text, (x, y), fontsize=7, textcoords="offset points",
+                    xytext=(4, 4 if i % 2 == 0 else -10))
     if logx:
         ax.set_xscale("log")
     if logy:

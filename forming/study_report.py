@@ -133,7 +133,7 @@ def write_csv(study: Study, rows: list[Row], metrics: list[str], path: Path) -> 
 
 def metric_plot(study: Study, rows: list[Row], metric: str, out: Path) -> Path:
     """``<metric>.png``: the metric at each level, with the extrapolated value if any."""
-    curves, title, xlabel = [], metric, "level"
+    curves, title, xlabel, notes = [], metric, "level", []
     for c in convergence(study, rows, metric):
         if not c.rows:
             continue
@@ -144,8 +144,10 @@ def metric_plot(study: Study, rows: list[Row], metric: str, out: Path) -> Path:
         else:
             x = list(range(len(c.rows)))
             xlabel = f"{c.key} (level)"
-        pts = sorted(zip(x, [r.metrics[metric] for r in c.rows], strict=True))
+        pts = sorted(zip(x, [r.metrics[metric] for r in c.rows],
+                         [r.values[c.key] for r in c.rows], strict=True))
         curves.append(([p[0] for p in pts], [p[1] for p in pts], label, "o-"))
+        notes += pts
         if c.result is not None:
             e = c.result
             span = [0.0, max(x)]
@@ -154,7 +156,7 @@ def metric_plot(study: Study, rows: list[Row], metric: str, out: Path) -> Path:
                            "k:"))
             curves.append((span, [e.value + e.uncertainty] * 2, "_", "k:"))
             title = f"{metric}: observed order {e.order:.2f}"
-    return plot_curves(out / f"{metric}.png", curves, xlabel, metric, title)
+    return plot_curves(out / f"{metric}.png", curves, xlabel, metric, title, notes=notes)
 
 
 def error_time_plot(study: Study, rows: list[Row], metric: str, out: Path) -> Path | None:
@@ -168,9 +170,10 @@ def error_time_plot(study: Study, rows: list[Row], metric: str, out: Path) -> Pa
     ref = reference(study, rows, metric)
     curves = [([p[0] for p in pts], [p[1] for p in pts], "runs", "o"),
               ([pts[i][0] for i in front], [pts[i][1] for i in front], "Pareto front", "r-s")]
+    notes = [(t, e, ", ".join(r.values.values())) for t, e, r in pts]
     return plot_curves(out / f"error_vs_time_{metric}.png", curves, "wall time [s]",
                        f"relative error of {metric}", f"against the {ref[1]}",
-                       logx=True, logy=True)
+                       logx=True, logy=True, notes=notes)
 
 
 def _fmt(v: float) -> str:
