@@ -10,6 +10,10 @@ central pure-shear zone (C) whose shear angle is
 with D the free length minus the width and d the extension. The case compares the
 computed shear angle at the centre with it and writes the shear-angle map.
 
+Accuracy of the defaults (docs/validation.md, "Convergence of the shipped cases"): the
+central shear at the end changes by 0.1% when the element halves to 1.25 mm (4.7 times
+the wall time); it stays within 0.8 deg of the pin-jointed kinematics all along.
+
 Run: ``python cases/bias_extension.py`` (``--set aspect=3`` for a 1:3 specimen).
 """
 
