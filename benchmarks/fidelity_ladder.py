@@ -234,7 +234,10 @@ def markdown(rows: list[dict], ref_level: Level, gaps: list[float]) -> str:
         "Reference: the implicit run on the default mesh (20 x 20 x 4). Shear differences are "
         "taken material point by material point at the reference's top-skin cell centres "
         "(`forming.post.skinfield`), volume-weighted; \"on the punch\" is the part of the "
-        "skin the drape covers.", "",
+        "skin the drape covers. Wall: the drape's whole command as a process (one process); "
+        "a finite-element run's `timing.wall_s` (mesh generation included, interpreter start "
+        "not). The drape's shear range is over its whole net, which wraps the punch to its "
+        "equator.", "",
         "| level | wall [s] | unknowns | top skin shear [deg] | RMS diff. whole skin [deg] "
         "| RMS diff. on the punch [deg] | punch force [N] | force diff. |",
         "|---|---:|---:|---|---:|---:|---:|---:|"]
