@@ -89,10 +89,11 @@ def main() -> None:
               "tolerance (the two rows above). Where the paths agree the forces agree to "
               "round-off: `tests/test_parallel.py` runs the full stroke on 4 x 4 x 2 and holds "
               "them to 1e-8 of the peak on the common path, and the peak, final force and "
-              "crushed volume to 1% whatever the path. (An earlier table, made at revision "
-              "7dc3a67, showed 1672 N serial against 1710 N on 2 ranks; later commits changed "
-              "the Newton path, and this revision's serial run gives 1706 N. Which commit "
-              "moved it was not traced.)"]
+              "crushed volume to 1% whatever the path. On 2 ranks the path is not even the "
+              "same from one run to the next: the parallel sums' round-off differs between "
+              "runs, and four 2-rank runs of the defaults gave peak forces of 1673, 1703, "
+              "1705 and 1706 N (docs/validation.md, convergence of the shipped cases). The "
+              "serial run repeats to every printed digit."]
     lines += ["", "Without regularisation (eta = 0) Newton stalls where the layers under the "
               "punch pass the curve's peak together (the discrete problem bifurcates); the "
               "viscous term (docs/theory.md) selects one path. Its overstress grows with "
