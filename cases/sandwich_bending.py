@@ -13,6 +13,10 @@ deg a dry fabric carries almost no axial load, and all three settings would give
 the core's answer. Quarter model: symmetry planes at mid-span (x = 0) and mid-width
 (y = 0); forces are for the whole strip.
 
+Accuracy of the defaults (docs/validation.md, "Convergence of the shipped cases"): **not
+mesh-converged.** The 5 mm element's stiffness is a third of the 10 mm one's and a 2.5
+mm run stops in its first steps; read its stiffness as unsettled.
+
 Run: ``python cases/sandwich_bending.py --set interface=bonded`` (or ``frictional``,
 ``frictionless``).
 """

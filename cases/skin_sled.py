@@ -9,6 +9,9 @@ the top interface slips. ``metrics.friction_ratio`` is the drag force over the n
 force carried by the interface once the skin slides; it should equal the coefficient
 (``friction``).
 
+Accuracy of the defaults (docs/validation.md, "Convergence of the shipped cases"): the
+friction ratio is the same to 1e-4 on 20, 10 and 5 mm elements.
+
 Run: ``python cases/skin_sled.py`` or ``mpirun -n 2 python cases/skin_sled.py``.
 """
 

@@ -20,7 +20,13 @@ Beam theory leaves out the indentation under the punch and over the supports.
 The transverse core bends with E = 0.2 MPa against G = 1.56 MPa: 8-node hexahedra with
 full integration add a parasitic shear of order ``(G / E) (a / t)^2`` of the bending
 energy (element length a along the strip), so coarse meshes overstiffen it
-(docs/validation.md). Run: ``python cases/strip_bending.py --set elasticity=transverse``.
+(docs/validation.md).
+
+Accuracy of the defaults (docs/validation.md, "Convergence of the shipped cases"): the
+force is 3.7% above its Richardson value (1.026 of beam theory, order 5); the next finer
+mesh (120 x 1 x 16) changes it by 3.4% for 20 times the wall time.
+
+Run: ``python cases/strip_bending.py --set elasticity=transverse``.
 """
 
 from __future__ import annotations

@@ -23,9 +23,9 @@ from pathlib import Path
 from forming.output import plot_curves
 from forming.post.convergence import (
     Extrapolation,
-    convergence_kind,
     extrapolate,
     pareto_front,
+    why_not,
 )
 from forming.study import FIXED_COLUMNS, Row, Study
 
@@ -216,12 +216,8 @@ def write_markdown(study: Study, rows: list[Row], metrics: list[str], pngs: list
             elif len(c.rows) < 3:
                 lines.append(f"{head}: {len(c.rows)} completed level(s), three are needed")
             else:
-                finest = sorted(zip(c.h, [r.metrics[m] for r in c.rows], strict=True))[:3]
-                kind = convergence_kind([v for _, v in finest])
-                why = ("oscillate" if kind == "oscillating" else
-                       "change more on the finer levels than a converging sequence can"
-                       if kind == "monotonic" else "agree to round-off")
-                lines.append(f"{head}: the three finest levels {why}; no extrapolation")
+                why = why_not(c.h, [r.metrics[m] for r in c.rows])
+                lines.append(f"{head}: {why}; no extrapolation")
     lines += ["", "## Plots", ""] + [f"![{p.stem}]({p.name})" for p in pngs]
     path.write_text("\n".join(lines) + "\n")
     return path

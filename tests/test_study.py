@@ -17,6 +17,7 @@ from forming.post.convergence import (
     extrapolate,
     observed_order,
     pareto_front,
+    why_not,
 )
 from forming.study import Vary, folder_name, parse_study
 
@@ -38,9 +39,9 @@ def test_richardson_recovers_an_exact_power_law(h, p):
 
 
 def test_richardson_refuses_what_it_cannot_judge():
-    """Oscillating, stalled or diverging levels, fewer than three levels, or equal sizes
-    give no extrapolation (None), and the order function raises instead of returning a
-    number."""
+    """Oscillating, stalled, diverging or too slowly converging levels (order below 0.5),
+    fewer than three levels, or equal sizes give no extrapolation (None), the order
+    function raises where no positive order fits, and why_not says which."""
     assert convergence_kind([1.0, 1.1, 1.0]) == "oscillating"
     assert convergence_kind([1.0, 1.0, 1.2]) == "converged"
     assert extrapolate([1, 2, 4], [1.0, 1.1, 1.0]) is None
@@ -55,6 +56,15 @@ def test_richardson_refuses_what_it_cannot_judge():
     with pytest.raises(ValueError, match="no positive order"):
         observed_order([1, 2, 4], [1.0, 1.5, 1.7])
     assert extrapolate([1, 2, 4], [1.0, 1.5, 1.7]) is None
+    assert "change more" in why_not([1, 2, 4], [1.0, 1.5, 1.7])
+    assert "oscillate" in why_not([4, 2, 1], [1.0, 1.1, 1.0])
+    # converging, but too slowly to be in the asymptotic range: core_shear's modulus on
+    # 24x1x2, 48x2x4, 96x4x8 drifts by 0.2% per level (order 0.06; Richardson would put
+    # the limit 5% away from every level)
+    shear = [1.55953, 1.5562, 1.55299]
+    assert observed_order([1, 2, 4], shear[::-1]) < 0.1
+    assert extrapolate([4, 2, 1], shear) is None
+    assert "too slowly" in why_not([4, 2, 1], shear)
 
 
 def test_pareto_front():

@@ -23,6 +23,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 SAFETY = 1.25  # Roache's factor of safety for three or more levels
+MIN_ORDER = 0.5
+"""Smallest observed order extrapolated from. Far below any element's formal order the
+levels are not in the asymptotic range, and the extrapolation reaches far outside them
+(its step from the finest level grows as 1 / (r^p - 1)): a shear modulus drifting by
+0.2% per level gave order 0.06 and a value 5% away."""
 
 
 @dataclass(frozen=True)
@@ -108,7 +113,8 @@ def extrapolate(h: Sequence[float], f: Sequence[float]) -> Extrapolation | None:
 
     Returns:
         None when fewer than three levels are given or the three finest do not converge
-        monotonically (oscillating, or changing more on the finer levels).
+        monotonically (oscillating, or changing more on the finer levels), or converge
+        with an observed order below :data:`MIN_ORDER` (:func:`why_not` says which).
     """
     if len(h) < 3:
         return None
@@ -121,12 +127,34 @@ def extrapolate(h: Sequence[float], f: Sequence[float]) -> Extrapolation | None:
         p = observed_order(hs, fs)
     except ValueError:  # monotonic, but not converging
         return None
+    if p < MIN_ORDER:
+        return None
     r21 = hs[1] / hs[0]
     gain = r21 ** p - 1.0
     value = (r21 ** p * fs[0] - fs[1]) / gain
     gci = SAFETY * abs((fs[0] - fs[1]) / fs[0]) / gain if fs[0] else math.inf
     return Extrapolation(order=p, value=value, gci=gci, uncertainty=gci * abs(fs[0]),
                          ratios=(r21, hs[2] / hs[1]))
+
+
+def why_not(h: Sequence[float], f: Sequence[float]) -> str:
+    """Why :func:`extrapolate` gives nothing for these levels (any order), in words."""
+    if len(h) < 3 or len(set(h)) < 3:
+        return "fewer than three levels to judge"
+    levels = sorted(zip(h, f, strict=True))[:3]
+    fs = [b for _, b in levels]
+    kind = convergence_kind(fs)
+    if kind == "oscillating":
+        return "the three finest levels oscillate"
+    if kind == "converged":
+        return "the two finest levels agree to round-off"
+    try:
+        p = observed_order([a for a, _ in levels], fs)
+    except ValueError:
+        return ("the three finest levels change more on the finer levels than a converging "
+                "sequence can")
+    return (f"the three finest levels converge too slowly to extrapolate (observed order "
+            f"{p:.2g}, below {MIN_ORDER:g})") if p < MIN_ORDER else "it extrapolates"
 
 
 def pareto_front(cost: Sequence[float], error: Sequence[float]) -> list[int]:
