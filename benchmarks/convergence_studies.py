@@ -5,7 +5,8 @@
 - ``core_crushing``: mesh (4 x 4 x 3, the default 8 x 8 x 6, 12 x 12 x 9) and load step;
 - ``bias_extension``: the central shear angle against the element size;
 - ``core_shear``, ``strip_bending``: mesh, against their analytic answers;
-- ``sandwich_bending``, ``skin_sled``: element size.
+- ``sandwich_bending``, ``skin_sled``, ``sliding_sled``, ``ironing``, ``contact_patch``,
+  ``core_compression``, ``core_tension``, ``picture_frame``: element size or mesh.
 
 For each: the levels' metrics and wall times, the observed order and the Richardson value
 with its grid-convergence index where three levels converge monotonically (else why not),
@@ -99,6 +100,24 @@ STUDIES = (
               "is not an answer yet; the case's docstring says so."),
     Spec("`skin_sled`: element size", "skin_sled", "element", ("20", "10", "5"), "10", (),
          ("friction_ratio", "slip_mm"), "sled_element", ranks=1),
+    Spec("`sliding_sled`: fabric elements", "sliding_sled", "skin_cells", ("5", "10", "20"),
+         "10", (), ("friction_ratio_min", "friction_ratio_max"), "sliding_sled_cells",
+         ranks=1,
+         note="`skin_cells=5` (10 mm fabric elements over 12.5 mm core elements) stops in "
+              "its first step with a non-finite residual (DIVERGED_FUNCTION_NANORINF); not "
+              "investigated. Finer fabric than core, as the default, is the side that works."),
+    Spec("`ironing`: block element size", "ironing", "block_element", ("5", "2.5", "1.25"),
+         "2.5", (), ("friction_ratio_min", "friction_ratio_max", "normal_oscillation"),
+         "ironing_element", ranks=1),
+    Spec("`contact_patch`: slave elements", "contact_patch", "upper_cells", ("3", "5", "9"),
+         "5", (), ("pressure_min_MPa", "pressure_max_MPa"), "patch_cells", ranks=1),
+    Spec("`core_compression`: mesh", "core_compression", "cells", ("1,1,2", "2,2,4", "4,4,8"),
+         "2,2,4", (), ("curve_rmse_rel",), "compression_mesh", ranks=1),
+    Spec("`core_tension`: mesh", "core_tension", "cells", ("3,1,1", "6,2,2", "12,4,4"),
+         "6,2,2", (), ("modulus_MPa",), "tension_mesh", ranks=1),
+    Spec("`picture_frame`: mesh", "picture_frame", "cells", ("4,4,1", "8,8,1", "16,16,1"),
+         "8,8,1", (), ("shear_curve_rmse_rel", "shear_field_spread_deg"), "frame_mesh",
+         ranks=1),
 )
 
 

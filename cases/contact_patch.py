@@ -15,6 +15,9 @@ its tributary area (``transfer=area``, the default) passes it to the accuracy of
 quadrature. ``metrics.pressure_deviation_max`` is the largest ``|p / p_applied - 1|``
 over the slave nodes.
 
+Accuracy of the defaults (docs/validation.md, "Convergence of the shipped cases"): the
+slave pressure stays within 0.5% of 1 MPa with 3, 5 and 9 slave elements.
+
 Run: ``python cases/contact_patch.py`` (``--set upper_cells=3`` puts a coarse slave on a
 finer master).
 """

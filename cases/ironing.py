@@ -15,6 +15,10 @@ tangential over normal equals the friction coefficient. ``metrics``:
 ``normal_oscillation`` and ``tangential_oscillation`` (largest deviation from a straight
 line fitted to the force over the steady slide, relative to its mean).
 
+Accuracy of the defaults (docs/validation.md, "Convergence of the shipped cases"): the
+friction ratio stays within 0.1% of the 1.25 mm block element's (5.6 times the wall
+time); the force oscillation (0.26% of the mean) is 62% above that finer mesh's.
+
 Run: ``python cases/ironing.py`` or ``mpirun -n 2 python cases/ironing.py``.
 """
 

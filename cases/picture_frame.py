@@ -10,6 +10,9 @@ from the internal virtual work along the frame's motion, normalised as the input
 The frame's coordinates are the fibres' (0 and 90 deg); the stitch runs along the frame's
 diagonal, the fibres' bisector. Positive shear closes the fibres around the stitch.
 
+Accuracy of the defaults (docs/validation.md, "Convergence of the shipped cases"): a
+homogeneous test: the curve error is the same on 4 x 4 to 16 x 16 meshes.
+
 Run: ``python cases/picture_frame.py`` (or ``--set shear_max_deg=60``).
 """
 
