@@ -60,9 +60,8 @@ def study_runs(case: str, vary: dict[str, tuple], out: Path, sets: tuple[str, ..
     from forming.study import parse_study, run_study
     from forming.study_report import report
 
-    study = parse_study(case, [f"{k}={(':' if any(',' in str(v) for v in vals) else ',').join(
-        str(v) for v in vals)}" for k, vals in vary.items()], out, sets, metrics, "finest",
-        jobs, ranks)
+    levels = [f"{k}={':'.join(str(v) for v in vals)}" for k, vals in vary.items()]
+    study = parse_study(case, levels, out, sets, metrics, "finest", jobs, ranks)
     rows = run_study(study)
     report(study, rows)
     pairs = []

@@ -30,9 +30,8 @@ from pathlib import Path
 from _report import REPO, machine, study_runs, update_section
 
 sys.path.insert(0, str(REPO))
-from forming.post.convergence import why_not  # noqa: E402
-from forming.study import parse_study  # noqa: E402
-from forming.study_report import convergence  # noqa: E402
+from forming.post.convergence import judge  # noqa: E402
+from forming.study_report import level_sizes  # noqa: E402
 
 HEMI = ("skins=true", "blank_holder=true")
 HEMI_METRICS = ("punch_force_max_N", "crushed_volume_mm3", "shear_max_deg_skin_top",
@@ -130,9 +129,6 @@ def section(spec: Spec, work: Path) -> list[str]:
     pairs = study_runs(spec.case, {spec.key: spec.levels}, work / spec.folder, spec.sets,
                        spec.ranks, metrics=spec.metrics)
     rows = [r for r, _ in pairs]
-    study = parse_study(spec.case, [f"{spec.key}={':'.join(spec.levels)}"],
-                        work / spec.folder, spec.sets, spec.metrics, "extrapolated", 1,
-                        spec.ranks)
     lines = [f"### {spec.title}", "",
              f"`forming study {spec.case} --vary {spec.key}={':'.join(spec.levels)}"
              + "".join(f" --set {s}" for s in spec.sets) + f" --ranks {spec.ranks}`; "
@@ -154,17 +150,17 @@ def section(spec: Spec, work: Path) -> list[str]:
     finer = done.get(order[i + 1]) if i + 1 < len(order) else None
     coarser = done.get(order[i - 1]) if i > 0 else None
     for m in spec.metrics:
-        conv = next(iter(convergence(study, rows, m)), None)
-        if conv is not None and conv.result is not None:
-            e = conv.result
+        have = [r for r in rows if r.status == "completed" and m in r.metrics]
+        h = level_sizes(have, spec.key) if have else None
+        e, why = (judge(h, [r.metrics[m] for r in have]) if h is not None
+                  else (None, "not a size"))
+        if e is not None:
             head = (f"- `{m}`: observed order {e.order:.2f}, extrapolated {e.value:.5g} "
                     f"+/- {e.uncertainty:.2g} (GCI {100 * e.gci:.2g}%)")
             err = (abs(default.metrics[m] / e.value - 1) if default and e.value
                    else float("nan"))
             head += f"; the default is {err:.1%} from it"
         else:
-            why = (why_not(conv.h, [r.metrics[m] for r in conv.rows])
-                   if conv is not None and conv.h is not None else "not a size")
             head = f"- `{m}`: no extrapolation ({why})"
             if default and coarser and m in default.metrics and default.metrics[m]:
                 head += (f"; the default changes by "

@@ -54,7 +54,6 @@ class Level:
 
     label: str
     wall_s: float
-    ranks: int
     unknowns: int
     field: CellField | DrapeField
     shear_range: tuple[float, float]
@@ -71,7 +70,7 @@ def drape_level(work: Path) -> Level:
     wall = time.perf_counter() - t0
     rec = json.loads((out / "drape.json").read_text())
     field = DrapeField.from_drape_json(out)
-    return Level(f"kinematic drape, d = {rec['settings']['spacing']:.3g} mm", wall, 1, 0,
+    return Level(f"kinematic drape, d = {rec['settings']['spacing']:.3g} mm", wall, 0,
                  field, (rec["node_shear_min_deg"], rec["node_shear_max_deg"]), None, out)
 
 
@@ -85,7 +84,7 @@ def fe_levels(work: Path, solver: str, meshes: tuple[str, ...], ranks: int) -> l
             continue
         m = row.metrics
         levels.append(Level(f"macro {solver}, {row.values['cells'].replace(',', ' x ')}",
-                            row.wall_s, ranks, row.unknowns, CellField.load(row.folder, SKIN),
+                            row.wall_s, row.unknowns, CellField.load(row.folder, SKIN),
                             (m["shear_min_deg_skin_top"], m["shear_max_deg_skin_top"]),
                             m["punch_force_max_N"], row.folder))
     return levels
@@ -224,13 +223,14 @@ def verdict(rows: list[dict], gaps: list[float], ref_level: Level) -> list[str]:
     return out
 
 
-def markdown(rows: list[dict], ref_level: Level, gaps: list[float]) -> str:
+def markdown(rows: list[dict], ref_level: Level, gaps: list[float], ranks: int) -> str:
     ref_f = ref_level.force_N
     lines = [
         "## The fidelity ladder: from a kinematic drape to the finite-element models "
         "(issue 19)", "",
         "`python benchmarks/fidelity_ladder.py --write`: `hemisphere --set skins=true --set "
-        f"blank_holder=true`, each finite-element run on 2 ranks, one at a time; {machine()}.",
+        f"blank_holder=true`, each finite-element run on {ranks} ranks, one at a time; "
+        f"{machine()}.",
         "Reference: the implicit run on the default mesh (20 x 20 x 4). Shear differences are "
         "taken material point by material point at the reference's top-skin cell centres "
         "(`forming.post.skinfield`), volume-weighted; \"on the punch\" is the part of the "
@@ -286,7 +286,7 @@ def main() -> None:
     FIG.mkdir(parents=True, exist_ok=True)
     chart(rows, ref_level, FIG / "fidelity_ladder.png")
     maps(rows, ref_level.field, FIG / "fidelity_ladder_maps.png")
-    text = markdown(rows, ref_level, punch_distance(levels, ref_level))
+    text = markdown(rows, ref_level, punch_distance(levels, ref_level), args.ranks)
     print(text)
     if args.write:
         update_section("fidelity_ladder", text)

@@ -254,28 +254,27 @@ def write_final_shape(path: Path, bodies: dict, comm: MPI.Comm) -> Path:
     """
     arrays: dict[str, np.ndarray] = {}
 
-    def gathered(key: str, parts: tuple[np.ndarray, ...]) -> None:
-        every = comm.gather(parts, root=0)
+    def gathered(columns: dict[str, np.ndarray]) -> None:
+        """All ranks' rows into ``arrays``, sorted by the first column (coordinates)."""
+        every = comm.gather(columns, root=0)
         if comm.rank == 0:
-            cols = [np.concatenate([p[k] for p in every]) for k in range(len(parts))]
-            order = np.lexsort(np.round(cols[0], 9).T[::-1])
-            for name, col in zip(key.split(","), cols, strict=True):
-                arrays[name] = col[order]
+            cols = {k: np.concatenate([p[k] for p in every]) for k in columns}
+            order = np.lexsort(np.round(next(iter(cols.values())), 9).T[::-1])
+            arrays.update({k: v[order] for k, v in cols.items()})
 
     for name, body in bodies.items():
         n = body.V.dofmap.index_map.size_local
         bs = body.V.dofmap.index_map_bs
         X = body.V.tabulate_dof_coordinates()
         u = body.u.x.array.reshape(-1, bs)
-        gathered(f"{name}_X,{name}_u", (X[:n], u[:n]))
-        body.update_output()
+        gathered({f"{name}_X": X[:n], f"{name}_u": u[:n]})
         fields = body.cell_fields()
         if fields:
             dofs = body.V.dofmap.list[body.cells[: body.n_local_cells]]
             Xc, xc = X[dofs], (X + u)[dofs]
-            gathered(",".join([f"{name}_cell_X", f"{name}_cell_x", f"{name}_cell_volume"]
-                              + [f"{name}_cell_{k}" for k in fields]),
-                     (Xc.mean(axis=1), xc.mean(axis=1), hex_volumes(Xc), *fields.values()))
+            gathered({f"{name}_cell_X": Xc.mean(axis=1), f"{name}_cell_x": xc.mean(axis=1),
+                      f"{name}_cell_volume": hex_volumes(Xc)}
+                     | {f"{name}_cell_{k}": v for k, v in fields.items()})
     if comm.rank == 0:
         np.savez_compressed(path, **arrays)
     return path

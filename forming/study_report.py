@@ -21,12 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from forming.output import plot_curves
-from forming.post.convergence import (
-    Extrapolation,
-    extrapolate,
-    pareto_front,
-    why_not,
-)
+from forming.post.convergence import Extrapolation, judge, pareto_front
 from forming.study import FIXED_COLUMNS, Row, Study
 
 
@@ -55,7 +50,10 @@ def level_sizes(rows: list[Row], key: str) -> list[float] | None:
 
 @dataclass(frozen=True)
 class Convergence:
-    """One metric over one varied parameter (the others fixed at ``fixed``)."""
+    """One metric over one varied parameter (the others fixed at ``fixed``).
+
+    ``why``: why ``result`` is None, in words (empty when there is one).
+    """
 
     metric: str
     key: str
@@ -63,6 +61,7 @@ class Convergence:
     rows: list[Row]
     h: list[float] | None
     result: Extrapolation | None
+    why: str
 
 
 def groups(rows: list[Row], key: str) -> list[tuple[dict[str, str], list[Row]]]:
@@ -81,9 +80,9 @@ def convergence(study: Study, rows: list[Row], metric: str) -> list[Convergence]
         for fixed, members in groups(rows, vary.key):
             done = [r for r in members if r.status == "completed" and metric in r.metrics]
             h = level_sizes(done, vary.key) if done else None
-            result = (extrapolate(h, [r.metrics[metric] for r in done])
-                      if h is not None else None)
-            found.append(Convergence(metric, vary.key, fixed, done, h, result))
+            result, why = (judge(h, [r.metrics[metric] for r in done]) if h is not None
+                           else (None, "not a size, no order"))
+            found.append(Convergence(metric, vary.key, fixed, done, h, result, why))
     return found
 
 
@@ -211,13 +210,8 @@ def write_markdown(study: Study, rows: list[Row], metrics: list[str], pngs: list
                 lines.append(f"{head}: observed order {e.order:.2f}, extrapolated "
                              f"{e.value:.6g} +/- {e.uncertainty:.3g} (GCI {100 * e.gci:.2g}% "
                              f"of the finest; ratios {e.ratios[0]:.3g}, {e.ratios[1]:.3g})")
-            elif c.h is None:
-                lines.append(f"{head}: not a size, no order")
-            elif len(c.rows) < 3:
-                lines.append(f"{head}: {len(c.rows)} completed level(s), three are needed")
             else:
-                why = why_not(c.h, [r.metrics[m] for r in c.rows])
-                lines.append(f"{head}: {why}; no extrapolation")
+                lines.append(f"{head}: {c.why}; no extrapolation")
     lines += ["", "## Plots", ""] + [f"![{p.stem}]({p.name})" for p in pngs]
     path.write_text("\n".join(lines) + "\n")
     return path

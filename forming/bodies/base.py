@@ -92,10 +92,7 @@ class DeformableBody(Protocol):
         """Bring the output fields up to the converged state."""
 
     def cell_fields(self) -> dict[str, np.ndarray]:
-        """Cell-wise results kept in ``final_shape.npz`` (name -> owned cells' values).
-
-        Call :meth:`update_output` first.
-        """
+        """Cell-wise results kept in ``final_shape.npz`` (name -> owned cells' values)."""
 
     def min_det_F(self) -> float:
         """Smallest Jacobian determinant over all ranks."""

@@ -111,7 +111,8 @@ class FabricBody(BodyBase):
         return {"shear_angle": [self.shear_angle, self.wrinkling]}
 
     def cell_fields(self) -> dict[str, np.ndarray]:
-        """The owned cells' shear angles [deg] (call :meth:`update_output` first)."""
+        """The owned cells' shear angles [deg] at the current state."""
+        self.update_output()
         dofs = self.shear_angle.function_space.dofmap.list[self.cells[: self.n_local_cells], 0]
         return {"shear_angle_deg": self.shear_angle.x.array[dofs].copy()}
 

@@ -104,57 +104,53 @@ def observed_order(h: Sequence[float], f: Sequence[float]) -> float:
     return 0.5 * (lo + hi)
 
 
-def extrapolate(h: Sequence[float], f: Sequence[float]) -> Extrapolation | None:
-    """Richardson extrapolation from the three finest of several levels, or None.
+def judge(h: Sequence[float], f: Sequence[float]) -> tuple[Extrapolation | None, str]:
+    """Richardson extrapolation from the three finest of several levels, or why there is none.
 
     Args:
         h: Representative sizes of the levels (any order).
         f: The quantity at each level.
 
     Returns:
-        None when fewer than three levels are given or the three finest do not converge
-        monotonically (oscillating, or changing more on the finer levels), or converge
-        with an observed order below :data:`MIN_ORDER` (:func:`why_not` says which).
+        The extrapolation and ``""``, or None and the reason in words: fewer than three
+        distinct levels, the three finest oscillate, agree to round-off, change more on
+        the finer levels than a converging sequence can, or converge with an observed
+        order below :data:`MIN_ORDER`.
     """
-    if len(h) < 3:
-        return None
     levels = sorted(zip(h, f, strict=True))[:3]
     hs = [a for a, _ in levels]
     fs = [b for _, b in levels]
-    if len(set(hs)) < 3 or convergence_kind(fs) != "monotonic":
-        return None
+    if len(set(hs)) < 3:
+        return None, "fewer than three levels to judge"
+    kind = convergence_kind(fs)
+    if kind == "oscillating":
+        return None, "the three finest levels oscillate"
+    if kind == "converged":
+        return None, "the two finest levels agree to round-off"
     try:
         p = observed_order(hs, fs)
     except ValueError:  # monotonic, but not converging
-        return None
+        return None, ("the three finest levels change more on the finer levels than a "
+                      "converging sequence can")
     if p < MIN_ORDER:
-        return None
+        return None, (f"the three finest levels converge too slowly to extrapolate "
+                      f"(observed order {p:.2g}, below {MIN_ORDER:g})")
     r21 = hs[1] / hs[0]
     gain = r21 ** p - 1.0
     value = (r21 ** p * fs[0] - fs[1]) / gain
     gci = SAFETY * abs((fs[0] - fs[1]) / fs[0]) / gain if fs[0] else math.inf
     return Extrapolation(order=p, value=value, gci=gci, uncertainty=gci * abs(fs[0]),
-                         ratios=(r21, hs[2] / hs[1]))
+                         ratios=(r21, hs[2] / hs[1])), ""
+
+
+def extrapolate(h: Sequence[float], f: Sequence[float]) -> Extrapolation | None:
+    """The extrapolation of :func:`judge`, or None."""
+    return judge(h, f)[0]
 
 
 def why_not(h: Sequence[float], f: Sequence[float]) -> str:
-    """Why :func:`extrapolate` gives nothing for these levels (any order), in words."""
-    if len(h) < 3 or len(set(h)) < 3:
-        return "fewer than three levels to judge"
-    levels = sorted(zip(h, f, strict=True))[:3]
-    fs = [b for _, b in levels]
-    kind = convergence_kind(fs)
-    if kind == "oscillating":
-        return "the three finest levels oscillate"
-    if kind == "converged":
-        return "the two finest levels agree to round-off"
-    try:
-        p = observed_order([a for a, _ in levels], fs)
-    except ValueError:
-        return ("the three finest levels change more on the finer levels than a converging "
-                "sequence can")
-    return (f"the three finest levels converge too slowly to extrapolate (observed order "
-            f"{p:.2g}, below {MIN_ORDER:g})") if p < MIN_ORDER else "it extrapolates"
+    """Why :func:`judge` gives no extrapolation for these levels, in words."""
+    return judge(h, f)[1] or "it extrapolates"
 
 
 def pareto_front(cost: Sequence[float], error: Sequence[float]) -> list[int]:

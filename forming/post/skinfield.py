@@ -94,6 +94,8 @@ class CellField:
         if xs.size * ys.size != self.values.size or np.isnan(grid).any() or not regular:
             raise InputError("final_shape.npz", "the cell centres are not a regular grid in "
                              "plan (a graded or layered skin mesh): cannot interpolate")
+        if min(xs.size, ys.size) < 2:
+            raise InputError("final_shape.npz", "a skin one cell wide cannot be interpolated")
         return xs, ys, grid
 
     def at(self, points: np.ndarray) -> np.ndarray:
@@ -105,18 +107,13 @@ class CellField:
         xs, ys, grid = self._grid()
         out = []
         for k, v in enumerate((xs, ys)):
-            h = (v[-1] - v[0]) / max(v.size - 1, 1)
+            h = (v[-1] - v[0]) / (v.size - 1)
             p = points[:, k]
-            f = np.clip((p - v[0]) / h, 0, v.size - 1) if v.size > 1 else np.zeros_like(p)
+            f = np.clip((p - v[0]) / h, 0, v.size - 1)
             f[(p < v[0] - h / 2 - 1e-9) | (p > v[-1] + h / 2 + 1e-9)] = np.nan
             out.append(f)
-        a, b = out
-        bad = np.isnan(a) | np.isnan(b)
-        if grid.shape[0] == 1 or grid.shape[1] == 1:
-            raise InputError("final_shape.npz", "a skin one cell wide cannot be interpolated")
-        r = bilinear(grid, np.nan_to_num(a), np.nan_to_num(b))
-        r[bad] = np.nan
-        return r
+        # bilinear gives NaN where an index is NaN (outside every comparison)
+        return bilinear(grid, *out)
 
 
 @dataclass(frozen=True)
