@@ -17,6 +17,7 @@ except ImportError:  # conda / Docker DOLFINx 0.11
 import dolfinx  # noqa: E402
 import dolfinx.fem.petsc  # noqa: E402,F401
 import dolfinx.io  # noqa: E402
+import numpy as np  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
 # C compiler flags of the solve forms (residual and Jacobian): vectorised for the machine
@@ -64,6 +65,22 @@ def model_to_mesh(model, comm, rank: int = 0, gdim: int = 3):
     """
     partitioner = dolfinx.mesh.create_cell_partitioner(dolfinx.mesh.GhostMode.shared_facet, 2)
     return dolfinx.io.gmsh.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
+
+
+def create_hex_mesh(comm, cells, x):
+    """A hexahedral mesh from node coordinates and cells in gmsh's node order.
+
+    Rank 0 passes the whole mesh and the other ranks empty arrays; interior facets are
+    ghosted as in :func:`model_to_mesh`.
+    """
+    import basix.ufl
+    import ufl
+
+    perm = dolfinx.io.gmsh.cell_perm_array(dolfinx.mesh.CellType.hexahedron, 8)
+    element = ufl.Mesh(basix.ufl.element("Lagrange", "hexahedron", 1, shape=(3,)))
+    partitioner = dolfinx.mesh.create_cell_partitioner(dolfinx.mesh.GhostMode.shared_facet, 2)
+    return dolfinx.mesh.create_mesh(comm, np.asarray(cells, dtype=np.int64)[:, perm], element,
+                                    np.asarray(x, dtype=float), partitioner)
 
 
 def vtx_writer(comm, path, functions):

@@ -24,6 +24,10 @@ class KernelFailure(RuntimeError):
     """
 
 
+class SolveFailure(RuntimeError):
+    """A solve outside the step lifecycle (an eigenvalue analysis, say) did not succeed."""
+
+
 EXIT_CODES = {
     "completed": 0,
     "failed": 1,  # a solve that did not converge, or a case's code that raised
