@@ -165,6 +165,14 @@ class Model:
                 for i, itf in enumerate(scene.interfaces)
             ]
         self.constraints: list[Constraint] = [*self.contacts, *self.interfaces]
+        self.stabilisation = None
+        if (spec := scene.stabilisation) is not None:
+            from forming.stabilisation import ViscousStabilisation
+
+            chosen = {n: b for n, b in self.bodies.items()
+                      if not spec.bodies or n in spec.bodies}
+            self.stabilisation = ViscousStabilisation(spec, chosen, md.mesh,
+                                                      self.entity_maps or None)
         tests = self.test_functions()
         self.dirichlet = DirichletSet(
             scene, self.bodies, lambda name, w: self._residual_terms(tests | {name: w})[name])
@@ -230,6 +238,9 @@ class Model:
         for c in self.constraints:
             for name, r in c.residuals(tests).items():
                 forms[name] = forms[name] + r
+        if self.stabilisation is not None:
+            for name, r in self.stabilisation.residuals(tests).items():
+                forms[name] = forms[name] + r
         return forms
 
     def residuals(self) -> list[ufl.Form]:
@@ -264,6 +275,9 @@ class Model:
             for i in r:  # (a constraint assembled outside the forms has none)
                 for j in c.bodies:
                     add(i, j, ufl.derivative(r[i], self.bodies[j].u, trials[j]))
+        if self.stabilisation is not None:
+            for i, r in self.stabilisation.residuals(tests).items():
+                add(i, i, ufl.derivative(r, self.bodies[i].u, trials[i]))
         return [[blocks.get((i, j)) for j in self.names] for i in self.names]
 
     # -- state -----------------------------------------------------------------------------
@@ -274,6 +288,8 @@ class Model:
             b.load_increment = t - self._t_committed
             b.invalidate()
         self.dirichlet.set_load(t)
+        if self.stabilisation is not None:
+            self.stabilisation.set_load(t - self._t_committed)
         for tr, const, _ds in self.tractions:
             const.value[:] = tr.value(t)
         for c in self.constraints:
@@ -319,6 +335,8 @@ class Model:
                 itself (the explicit solver's element loops and nodal contacts).
         """
         self._t_committed = self._t
+        if self.stabilisation is not None:  # first: its forces are the solve's, before
+            self.stabilisation.commit()  # the bodies' history moves on
         for obj in (*self.bodies.values(), *self.constraints):
             if id(obj) not in exclude:
                 obj.commit()
@@ -329,6 +347,8 @@ class Model:
             "t": (self._t, self._t_committed),
             "bodies": [b.snapshot() for b in self.bodies.values()],
             "contacts": [c.snapshot() for c in self.constraints],
+            "stabilisation": (None if self.stabilisation is None
+                              else self.stabilisation.snapshot()),
         }
 
     def restore(self, snap: dict) -> None:
@@ -338,12 +358,16 @@ class Model:
             b.restore(bs)
         for c, cs in zip(self.constraints, snap["contacts"], strict=True):
             c.restore(cs)
+        if self.stabilisation is not None:
+            self.stabilisation.restore(snap["stabilisation"])
 
     def snapshot_layout(self) -> dict:
         """Where the arrays of :meth:`snapshot` live (a checkpoint on disk, forming.restart)."""
         return {"t": None,
                 "bodies": [b.snapshot_layout() for b in self.bodies.values()],
-                "contacts": [c.snapshot_layout() for c in self.constraints]}
+                "contacts": [c.snapshot_layout() for c in self.constraints],
+                "stabilisation": (None if self.stabilisation is None
+                                  else self.stabilisation.snapshot_layout())}
 
     def displacements(self) -> list[np.ndarray]:
         """Copies of every body's displacement array, in :attr:`names` order."""
@@ -371,6 +395,8 @@ class Model:
             merge(row, itf.history_columns(forces), f"interface {itf.name}", owners)
         for sl in self.sliding:
             merge(row, sl.history_columns(forces), f"sliding {sl.name}", owners)
+        if self.stabilisation is not None:
+            merge(row, self.stabilisation.history_columns(), "stabilisation", owners)
         return row
 
     def warnings(self) -> list[str]:
@@ -379,6 +405,7 @@ class Model:
         out += [f"contact {c.name}: friction {c.friction:g} is above 1 (the measured pairs lie "
                 "between 0.23 and 0.57, docs/materials.md)"
                 for c in self.constraints if c.friction > 1.0]
+        out += [] if self.stabilisation is None else self.stabilisation.warnings()
         return out + [w for c in self.constraints for w in c.warnings()]
 
     def overlaps(self) -> list[str]:

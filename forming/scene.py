@@ -360,6 +360,28 @@ class Sliding:
 
 
 @dataclass(frozen=True)
+class Stabilisation:
+    """Viscous stabilisation of an implicit run through buckling and snap-through.
+
+    A volume-proportional viscous force on the bodies, calibrated after the first step so
+    that such a step would dissipate ``fraction`` of its strain energy (Abaqus's
+    automatic stabilisation; theory.md). Implicit runs only.
+
+    Attributes:
+        fraction: Dissipated over strain energy of a step like the first (> 0, < 1).
+        bodies: Names of the stabilised bodies (empty: all).
+    """
+
+    fraction: float = 2e-4
+    bodies: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.fraction) and 0 < self.fraction < 1):
+            raise InputError("stabilisation.fraction", f"must lie in (0, 1), got "
+                             f"{self.fraction!r}")
+
+
+@dataclass(frozen=True)
 class Scene:
     """Everything a solver needs to know about what is simulated.
 
@@ -375,6 +397,7 @@ class Scene:
         sliding: Finite-sliding contact between bodies meshed apart.
         quadrature_degree: Quadrature degree of the bulk integrals (None: 2 for
             degree-1 bodies, 4 for degree 2, see ``docs/theory.md``).
+        stabilisation: Viscous stabilisation of an implicit run (None: none).
         symmetry_copies: How many copies of the modelled part make the whole part (4
             for a quarter model with two symmetry planes). Whole-part forces, volumes
             and plots multiply by it; it is declared here once.
@@ -394,6 +417,7 @@ class Scene:
     interfaces: tuple[Interface, ...] = ()
     sliding: tuple[Sliding, ...] = ()
     quadrature_degree: int | None = None
+    stabilisation: Stabilisation | None = None
     symmetry_copies: int = 1
     travel: float | None = None
     metadata: dict = field(default_factory=dict, compare=False)
@@ -458,6 +482,11 @@ class Scene:
             if c.tool not in tools:
                 raise InputError("contact.tool", f"unknown tool {c.tool!r}; tools: {tools}")
             self.mesh.facet_tag_ids(c.region)
+        if self.stabilisation is not None:
+            for who in self.stabilisation.bodies:
+                if who not in names:
+                    raise InputError("stabilisation.bodies", f"unknown body {who!r}; bodies: "
+                                     f"{names}")
 
     def tool(self, name: str) -> Tool:
         """The tool called ``name``."""

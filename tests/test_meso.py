@@ -20,19 +20,14 @@ from forming.errors import InputError
 from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.solids import ElasticSolid
 from forming.mesh import box
+from forming.meso.checks import WALL_MODULUS as E_WALL
+from forming.meso.checks import WALL_POISSON as NU_WALL
+from forming.meso.checks import cantilever_ratio, plate_buckling_ratios, wall_model
 from forming.meso.honeycomb import HoneycombCell, HoneycombPatch, honeycomb_mesh
 from forming.model import Model
 from forming.scene import Body, Displacement, Linear, Scene, Traction
 from forming.solver.buckling import buckling_modes
 from forming.solver.implicit import ImplicitSolver
-
-E_WALL, NU_WALL = 410.0, 0.21  # the paper's Table 1 (cardboard cell walls)
-
-
-def _wall(mesh, displacements, tractions) -> Model:
-    material = ElasticSolid(IsotropicElasticity(E_WALL, NU_WALL))
-    return Model(Scene(name="wall", mesh=mesh, bodies=(Body("wall", material, degree=2),),
-                       displacements=displacements, tractions=tractions))
 
 
 def test_cell_density_against_gibson_ashby():
@@ -95,46 +90,99 @@ def test_cantilever_wall_bends_as_beam_theory():
     P L^3 / (3 E I) + P L / (kappa G A) within 2% (measured 0.990; free sides, so beam
     theory rather than plate theory). A failure means the quadratic walls lock in bending
     and a honeycomb of them would be too stiff."""
-    L, b, t = 20.0, 2.0, 0.3
-    load = 1e-5  # MPa on the tip face: a deflection of 0.03 t, linear
-    model = _wall(box((L, b, t), (10, 1, 1)),
-                  (Displacement("wall", "xmin", x=0.0, y=0.0, z=0.0, reaction=False),),
-                  (Traction("wall", "xmax", z=Linear(-load)),))
-    solver = ImplicitSolver(model)
-    solver.advance(0.0, 1.0, 0.0)
-    assert solver.solve().converged
-    body = model.bodies["wall"]
-    n = body.V.dofmap.index_map.size_local
-    X = body.V.tabulate_dof_coordinates()[:n]
-    tip = np.isclose(X[:, 0], L)
-    uz = body.u.x.array.reshape(-1, 3)[:n, 2]
-    comm = model.comm
-    deflection = -comm.allreduce(uz[tip].sum()) / comm.allreduce(int(tip.sum()))
-    P, inertia = load * b * t, b * t**3 / 12
-    G = E_WALL / (2 * (1 + NU_WALL))
-    expected = P * L**3 / (3 * E_WALL * inertia) + P * L / (5 / 6 * G * b * t)
-    assert deflection == pytest.approx(expected, rel=0.02)
+    assert cantilever_ratio(cells=10) == pytest.approx(1.0, abs=0.02)
 
 
 def test_plate_buckling_load():
     """A simply supported square plate (10 x 10 x 0.2 mm, a quarter with symmetry, 8 x 8
     quadratic hexahedra, one through the thickness) under uniaxial compression buckles at
-    k pi^2 E / (12 (1 - nu^2)) (t/b)^2 with k = 4 (one half-wave each way) within 5%
-    (measured 0.977), and its next symmetric mode (three half-waves along the load, k =
-    (3 + 1/3)^2) within 5%. A failure means the linear buckling analysis (the differential
-    stiffness, SLEPc's eigenvalues) or the walls' bending is wrong, and the honeycomb's
-    buckling peak and imperfection modes with it."""
-    a, t = 10.0, 0.2
-    model = _wall(box((a / 2, a / 2, t), (8, 8, 1)),
+    k pi^2 E / (12 (1 - nu^2)) (t/b)^2 with k = 4 within 5% (measured 0.977), and its next
+    symmetric mode (three half-waves along the load, k = (3 + 1/3)^2) within 5%. A failure
+    means the linear buckling analysis (the differential stiffness, SLEPc's eigenvalues)
+    or the walls' bending is wrong, and the honeycomb's buckling strains with it."""
+    first, second = plate_buckling_ratios(cells=8)
+    assert first == pytest.approx(1.0, abs=0.05)
+    assert second == pytest.approx(1.0, abs=0.05)
+
+
+def test_buckling_modes_leave_the_model_undeformed():
+    """The buckling analysis returns the model to t = 0 with zero displacement, and scales
+    each mode to a largest nodal move of 1 (over all ranks)."""
+    model = wall_model(box((5.0, 5.0, 0.2), (2, 2, 1)),
                   (Displacement("wall", "xmin", x=0.0, reaction=False),
                    Displacement("wall", "ymin", y=0.0, reaction=False),
                    Displacement("wall", "xmax", z=0.0, reaction=False),
                    Displacement("wall", "ymax", z=0.0, reaction=False)),
                   (Traction("wall", "xmax", x=Linear(-1.0)),))
-    modes = buckling_modes(model, ImplicitSolver(model), n_modes=2)
-    plate = math.pi**2 * E_WALL / (12 * (1 - NU_WALL**2)) * (t / a) ** 2
-    assert modes.factors[0] == pytest.approx(4.0 * plate, rel=0.05)
-    assert modes.factors[1] == pytest.approx((3 + 1 / 3) ** 2 * plate, rel=0.05)
-    assert np.allclose(model.bodies["wall"].u.x.array, 0.0)  # left undeformed
-    peak = max(np.abs(m[0]).max() for m in modes.modes)
+    modes = buckling_modes(model, ImplicitSolver(model), n_modes=1)
+    assert modes.factors[0] > 0
+    assert np.allclose(model.bodies["wall"].u.x.array, 0.0) and model.t == 0.0
+    peak = float(np.abs(modes.modes[0][0]).max())
     assert model.comm.allreduce(peak, op=MPI.MAX) == pytest.approx(1.0)
+
+
+def test_meso_compression_modulus_and_stabilised_buckling(tmp_path):
+    """One cell's worth of walls (a 1 x 1 patch, 10 mm high) compressed to 5% nominal
+    strain between bonded platens, serial:
+
+    - its initial modulus is Gibson and Ashby's E_s x relative density within 5% (the
+      walls carry the load axially; measured +0.9%, the bonded ends' Poisson restraint);
+    - the walls buckle on the way and the viscous stabilisation carries the run through
+      (status completed), dissipating less than 1% of the internal work;
+    - the internal work of the linear first steps is 1/2 F delta (1e-6: the trapezoidal
+      rule is exact on a straight line), so the energy books are right;
+    - the walls' largest tensile strain is reported against the fracture strain.
+
+    A failure means the meso walls or the stabilisation changed: a stiffer modulus points
+    at the mesh or the walls' thickness, a failed run at the stabilisation.
+    """
+    from forming.case import run_case
+
+    s = run_case("meso_compression", tmp_path, ["cells=1,1", "height=10", "layers=3",
+                                                 "strain=0.05"])
+    m = s["metrics"]
+    assert s["status"] == "completed", s.get("reason")
+    assert m["modulus_MPa"] == pytest.approx(m["gibson_ashby_modulus_MPa"], rel=0.05)
+    assert m["peak_stress_MPa"] > 0 and 0 < m["max_wall_strain"] < 0.5
+    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    dissipated, work = h["stabilisation_energy_Nmm"][-1], h["internal_work_Nmm"][-1]
+    assert 0 < dissipated < 0.01 * work
+    stroke, force = h["stroke_mm"][1], -h["reaction_top_z_N"][1]
+    assert h["internal_work_Nmm"][1] == pytest.approx(0.5 * force * stroke, rel=1e-6)
+    assert (tmp_path / "stress_strain.png").is_file() and (tmp_path / "folded_walls.png").is_file()
+
+
+def test_meso_compression_with_a_touching_platen(tmp_path):
+    """The paper's original meso model: the top platen a rigid frictional tool (mu 0.36)
+    that touches the wall edges instead of holding them. Up to 1% strain (before the walls
+    buckle) the walls stand on it as on a bonded platen: the modulus is Gibson and Ashby's
+    within 5%, with the contact's penetration inside its tolerance. A failure means the
+    contact of a quadratic body with a tool (vertex quadrature) misbehaves."""
+    from forming.case import run_case
+
+    s = run_case("meso_compression", tmp_path, ["cells=1,1", "height=10", "layers=3",
+                                                 "strain=0.01", "platen=contact"])
+    m = s["metrics"]
+    assert s["status"] == "completed", s.get("reason")
+    assert m["modulus_MPa"] == pytest.approx(m["gibson_ashby_modulus_MPa"], rel=0.05)
+    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    assert h["force_platen_z_N"][-1] > 0
+
+
+def test_stabilisation_input_and_solver():
+    """A stabilisation fraction outside (0, 1) or naming an unknown body is refused with
+    the field named, and an explicit run refuses it (its damping is explicit.damping)."""
+    from forming.scene import Stabilisation
+    from forming.solver.explicit import ExplicitSolver
+
+    with pytest.raises(InputError, match="stabilisation.fraction"):
+        Stabilisation(fraction=0.0)
+    mesh = box((1.0, 1.0, 1.0), (1, 1, 1))
+    body = Body("wall", ElasticSolid(IsotropicElasticity(E_WALL, NU_WALL), density=7e-10))
+    with pytest.raises(InputError, match="stabilisation.bodies"):
+        Scene(name="s", mesh=mesh, bodies=(body,), stabilisation=Stabilisation(bodies=("x",)))
+    scene = Scene(name="s", mesh=mesh, bodies=(body,),
+                  displacements=(Displacement("wall", "bottom", x=0.0, y=0.0, z=0.0),),
+                  stabilisation=Stabilisation())
+    with pytest.raises(InputError, match="scene.stabilisation"):
+        ExplicitSolver(Model(scene))

@@ -23,7 +23,7 @@ from dolfinx.fem.petsc import assign  # noqa: I001
 from petsc4py import PETSc
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
-from forming.errors import SolveFailure
+from forming.errors import InputError, SolveFailure
 from forming.model import Model
 from forming.solver.implicit import ImplicitSolver
 
@@ -56,11 +56,16 @@ def buckling_modes(model: Model, solver: ImplicitSolver, n_modes: int = 3,
             to it).
 
     Raises:
+        InputError: The model has contact, interfaces or a stabilisation.
         SolveFailure: The pre-buckling step did not converge, or SLEPc found no
             positive factor.
     """
     from slepc4py import SLEPc
 
+    if model.constraints or model.stabilisation is not None:
+        raise InputError("buckling", "a linear buckling analysis needs a model whose "
+                         "stiffness changes linearly with the load: no contact, interface "
+                         "or stabilisation (hold the supports with prescribed displacements)")
     bodies = list(model.bodies.values())
     functions = [b.u for b in bodies] if len(bodies) > 1 else bodies[0].u
     x = solver.unknowns()

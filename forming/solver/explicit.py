@@ -34,7 +34,7 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat, signals  # noqa: F401
-from forming.errors import KernelFailure
+from forming.errors import InputError, KernelFailure
 from forming.model import Model
 from forming.solver.base import StepResult
 from forming.solver.ledger import EnergyLedger
@@ -64,6 +64,9 @@ class ExplicitSolver:
     retries_on_failure = False  # an unstable explicit run does not recover by cutting back
 
     def __init__(self, model: Model, options: ExplicitOptions | None = None):
+        if model.stabilisation is not None:
+            raise InputError("scene.stabilisation", "viscous stabilisation is for implicit "
+                             "runs; an explicit run damps with explicit.damping")
         self.model = model
         self.options = opts = options or ExplicitOptions()
         comm = model.comm

@@ -1,0 +1,78 @@
+"""Analytic checks of the thin quadratic walls: bending and buckling against plate theory.
+
+Shared by ``tests/test_meso.py`` (with tolerances) and ``benchmarks/validate_meso.py``
+(which writes the numbers into docs/validation.md).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from forming.materials.elasticity import IsotropicElasticity
+from forming.materials.solids import ElasticSolid
+from forming.mesh import box
+from forming.model import Model
+from forming.scene import Body, Displacement, Linear, Scene, Traction
+from forming.solver.buckling import buckling_modes
+from forming.solver.implicit import ImplicitSolver
+
+WALL_MODULUS, WALL_POISSON = 410.0, 0.21  # the paper's Table 1 (cardboard cell walls)
+
+
+def wall_model(mesh, displacements, tractions) -> Model:
+    """A model of one elastic cardboard wall (Table 1) with quadratic hexahedra."""
+    material = ElasticSolid(IsotropicElasticity(WALL_MODULUS, WALL_POISSON))
+    return Model(Scene(name="wall", mesh=mesh, bodies=(Body("wall", material, degree=2),),
+                       displacements=displacements, tractions=tractions))
+
+
+def cantilever_ratio(cells: int = 10, length: float = 20.0, width: float = 2.0,
+                     thickness: float = 0.3) -> float:
+    """Tip deflection of a cantilever strip over beam theory (with shear, kappa = 5/6).
+
+    ``cells`` quadratic hexahedra along, one across and one through the thickness; a
+    small tip traction (deflection 0.03 t), free sides.
+    """
+    load = 1e-5  # MPa on the tip face
+    model = wall_model(box((length, width, thickness), (cells, 1, 1)),
+                  (Displacement("wall", "xmin", x=0.0, y=0.0, z=0.0, reaction=False),),
+                  (Traction("wall", "xmax", z=Linear(-load)),))
+    solver = ImplicitSolver(model)
+    solver.advance(0.0, 1.0, 0.0)
+    if not solver.solve().converged:
+        return float("nan")
+    body = model.bodies["wall"]
+    n = body.V.dofmap.index_map.size_local
+    tip = np.isclose(body.V.tabulate_dof_coordinates()[:n, 0], length)
+    uz = body.u.x.array.reshape(-1, 3)[:n, 2]
+    comm = model.comm
+    deflection = -comm.allreduce(float(uz[tip].sum())) / comm.allreduce(int(tip.sum()))
+    force, inertia = load * width * thickness, width * thickness**3 / 12
+    shear = WALL_MODULUS / (2 * (1 + WALL_POISSON))
+    beam = (force * length**3 / (3 * WALL_MODULUS * inertia)
+            + force * length / (5 / 6 * shear * width * thickness))
+    return deflection / beam
+
+
+def plate_buckling_ratios(cells: int = 8, side: float = 10.0,
+                          thickness: float = 0.2) -> tuple[float, float]:
+    """First two buckling stresses of a simply supported square plate over plate theory.
+
+    A quarter with symmetry (``cells`` x ``cells`` quadratic hexahedra, one through the
+    thickness) under uniaxial compression; plate theory gives
+    ``k pi^2 E / (12 (1 - nu^2)) (t/b)^2`` with ``k = 4`` (one half-wave each way) and
+    ``k = (3 + 1/3)^2`` (three half-waves along the load, the next symmetric mode).
+    """
+    model = wall_model(box((side / 2, side / 2, thickness), (cells, cells, 1)),
+                  (Displacement("wall", "xmin", x=0.0, reaction=False),
+                   Displacement("wall", "ymin", y=0.0, reaction=False),
+                   Displacement("wall", "xmax", z=0.0, reaction=False),
+                   Displacement("wall", "ymax", z=0.0, reaction=False)),
+                  (Traction("wall", "xmax", x=Linear(-1.0)),))
+    modes = buckling_modes(model, ImplicitSolver(model), n_modes=2)
+    plate = math.pi**2 * WALL_MODULUS / (12 * (1 - WALL_POISSON**2)) * (thickness / side) ** 2
+    return float(modes.factors[0] / (4.0 * plate)), float(modes.factors[1]
+                                                          / ((3 + 1 / 3) ** 2 * plate))
+
