@@ -15,13 +15,16 @@ a picture of the buckled walls.
 
 The bottom platen is bonded; the top one is bonded too (default) or, with
 ``platen=contact``, a rigid tool that touches the wall edges with friction (the paper's
-original meso model; contact is enforced at the wall edges' element vertices).
+original meso model; contact is enforced at the wall edges' element vertices). With
+``variant=infill`` the pores are filled with the paper's soft dummy infill (Table 3:
+E 0.3 MPa, nu 0; linear hexahedra), a second body bonded to the walls, which the
+platens hold or touch as they do the walls.
 
 Limits of this first meso model (issue 20, in progress): the walls are elastic (no
 fracture at the 0.067 strain of Table 1: ``max_wall_strain`` says where it would be
 passed), walls do not touch each other (no self-contact: the run is only meaningful
-before folds meet, well short of densification), and the paper's dummy flanges and infill
-are not built yet.
+before folds meet, well short of densification), the infill does not fracture (Table 3:
+0.010), and the paper's dummy flanges are not built yet.
 
 Accuracy of the defaults: not yet studied (the wall tests give 1% in bending and 2.3%
 in buckling at their mesh sizes).
@@ -47,9 +50,20 @@ from forming.materials.solids import ElasticSolid
 from forming.meso.honeycomb import HoneycombCell, HoneycombPatch, honeycomb_mesh
 from forming.meso.post import folded_walls_picture, wall_strain_extremes
 from forming.output import plot_curves
-from forming.scene import Body, Contact, Displacement, Linear, Scene, Stabilisation, Tool
+from forming.scene import (
+    Body,
+    Contact,
+    Displacement,
+    Interface,
+    Linear,
+    Scene,
+    Stabilisation,
+    Tool,
+)
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
+
+INFILL_MODULUS, INFILL_POISSON = 0.3, 0.0  # the paper's dummy infill, Table 3 [MPa]
 
 
 @dataclass(frozen=True)
@@ -73,6 +87,7 @@ class Params:
     stabilisation: float = 2e-4  # viscous stabilisation, dissipated energy fraction (0: none)
     platen: Literal["bonded", "contact"] = "bonded"  # top platen held to the walls or touching
     platen_friction: float = 0.36  # platen-wall friction when touching (tool-core, stated)
+    variant: Literal["original", "infill"] = "original"  # walls alone, or pores filled (Table 3)
     max_step: float = 0.05  # largest load step (fraction of the stroke)
 
 
@@ -80,7 +95,7 @@ def patch_of(p: Params) -> HoneycombPatch:
     """The honeycomb patch the parameters describe."""
     cell = HoneycombCell(p.wall_length, None, p.wall_thickness, p.angle_deg, p.double_walls)
     return HoneycombPatch(cell, tuple(p.cells), p.height, p.size / 2, p.layers,
-                          p.imperfection, p.seed)
+                          p.imperfection, p.seed, p.variant == "infill")
 
 
 def build(p: Params) -> Job:
@@ -91,25 +106,45 @@ def build(p: Params) -> Job:
     mesh = honeycomb_mesh(patch)
     material = ElasticSolid(IsotropicElasticity(p.wall_modulus, p.wall_poisson))
     stroke = p.strain * p.height
-    bottom = Displacement("walls", "bottom", x=0.0, y=0.0, z=0.0, reaction=False)
-    bonded = (bottom, Displacement("walls", "top", x=0.0, y=0.0, z=Linear(-stroke)))
-    body = Body("walls", material, degree=2)
-    # the linear buckling analysis holds both platens (contact is not linear in the load)
-    buckling_strains = (_linear_buckling(Scene("meso_buckling", mesh, (body,), bonded),
+    filled = p.variant == "infill"
+    walls = Body("walls", material, region="walls" if filled else None, degree=2)
+    bodies = [walls]
+    # (body, its bottom face, its top face, its platen)
+    parts = [("walls", "bottom", "top", "platen")]
+    interfaces = ()
+    if filled:  # Table 3's dummy infill, bonded to the walls
+        infill = ElasticSolid(IsotropicElasticity(INFILL_MODULUS, INFILL_POISSON))
+        bodies.append(Body("infill", infill, region="infill", degree=1))
+        parts.append(("infill", "infill_bottom", "infill_top", "platen_infill"))
+        interfaces = (Interface("wall_infill", "walls", "infill", kind="bonded"),)
+    bottoms = tuple(Displacement(b, bot, x=0.0, y=0.0, z=0.0, reaction=False)
+                    for b, bot, _t, _p in parts)
+    bonded = bottoms + tuple(Displacement(b, top, x=0.0, y=0.0, z=Linear(-stroke))
+                             for b, _b, top, _p in parts)
+    # the linear buckling analysis: the walls alone, both platens holding them (contact
+    # and a bonded infill are not linear in the load)
+    held = (bottoms[0], bonded[len(parts)])  # the walls' bottom and top
+    buckling_strains = (_linear_buckling(Scene("meso_buckling", mesh, (walls,), held),
                                          p.strain) if p.buckling else None)
     if p.platen == "bonded":
         loading = dict(displacements=bonded)
-        force_column, scale = "reaction_top_z_N", -1.0
-    else:  # a rigid platen that touches the wall edges and may slide on them
-        platen = Plane((0.0, 0.0, p.height), (0.0, 0.0, -1.0))
-        loading = dict(displacements=(bottom,),
-                       tools=(Tool("platen", platen, z=Linear(-stroke)),),
-                       contacts=(Contact("walls", "top", "platen", friction=p.platen_friction),))
-        force_column, scale = "force_platen_z_N", 1.0
+        # a reaction is named by its face, and by body and face when there are several
+        columns = [f"reaction_{top if len(parts) == 1 else f'{b}_{top}'}_z_N"
+                   for b, _bt, top, _p in parts]
+        scale = -1.0
+    else:  # rigid platens that touch the wall edges (and infill) and may slide on them
+        plane = Plane((0.0, 0.0, p.height), (0.0, 0.0, -1.0))
+        loading = dict(displacements=bottoms,
+                       tools=tuple(Tool(tool, plane, z=Linear(-stroke))
+                                   for _b, _bt, _t, tool in parts),
+                       contacts=tuple(Contact(b, top, tool, friction=p.platen_friction)
+                                      for b, _bt, top, tool in parts))
+        columns, scale = [f"force_{tool}_z_N" for _b, _bt, _t, tool in parts], 1.0
     scene = Scene(
         name="meso_compression",
         mesh=mesh,
-        bodies=(body,),
+        bodies=tuple(bodies),
+        interfaces=interfaces,
         stabilisation=Stabilisation(p.stabilisation) if p.stabilisation > 0 else None,
         **loading,
     )
@@ -121,7 +156,7 @@ def build(p: Params) -> Job:
 
     def nominal(rec) -> tuple[np.ndarray, np.ndarray]:
         e = rec.column("t") * p.strain
-        s = scale * rec.column(force_column) / patch.footprint
+        s = scale * sum(rec.column(c) for c in columns) / patch.footprint
         return e, s
 
     def metrics(rec, model) -> dict:
@@ -165,7 +200,7 @@ def build(p: Params) -> Job:
         steps=StepControl(initial=0.02, max=p.max_step, min=1e-5),
         newton=NewtonOptions(),
         metrics=metrics, plots=plots, pictures=pictures,
-        response=Response(force_column, stroke, scale, "platen force"),
+        response=Response(columns[0], stroke, scale, "platen force on the walls"),
     )
 
 

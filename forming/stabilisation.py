@@ -49,8 +49,9 @@ class ViscousStabilisation:
         self.c = 0.0
         self.c_over_dt = fem.Constant(mesh, 0.0)
         self.u_n = {n: b.u.copy() for n, b in bodies.items()}
-        self._du2 = fem.form(sum(ufl.inner(b.u - self.u_n[n], b.u - self.u_n[n]) * b.dx
-                                 for n, b in bodies.items()), entity_maps=entity_maps)
+        # one form per body: the bodies' measures carry their own subdomain data
+        self._du2 = [fem.form(ufl.inner(b.u - self.u_n[n], b.u - self.u_n[n]) * b.dx,
+                              entity_maps=entity_maps) for n, b in bodies.items()]
         self._force = {n: fem.form(b.residual(ufl.TestFunction(b.V)), entity_maps=entity_maps,
                                    jit_options=compat.SOLVE_JIT_OPTIONS)
                        for n, b in bodies.items()}
@@ -77,7 +78,7 @@ class ViscousStabilisation:
         forces, 1/2 (f(u_n) + f(u)) . (u - u_n), prescribed nodes included (there it is
         the work of the fixtures); exact for a linear first step.
         """
-        du2 = assemble_scalar(self._du2)
+        du2 = sum(assemble_scalar(f) for f in self._du2)
         step_work = 0.0
         for n, b in self.bodies.items():
             b.update_material(want_tangent=False)

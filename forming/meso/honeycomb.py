@@ -161,6 +161,7 @@ class HoneycombPatch:
         imperfection: Largest distance a node is moved in the plane by the seeded
             random imperfection [mm] (0: perfect walls).
         seed: Seed of the imperfection.
+        infill: Whether the pores are meshed too (the paper's dummy infill, Table 3).
     """
 
     cell: HoneycombCell = HoneycombCell()
@@ -170,6 +171,7 @@ class HoneycombPatch:
     layers: int = 20
     imperfection: float = 0.0
     seed: int = 0
+    infill: bool = False
 
     def __post_init__(self) -> None:
         if len(self.cells) != 2 or any(int(n) != n or n < 1 for n in self.cells):
@@ -239,7 +241,7 @@ def section_area(cell: HoneycombCell, nx: int, ny: int) -> float:
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("honeycomb_area")
     try:
-        surface = _section(gmsh, cell, nx, ny)
+        surface, _pores = _section(gmsh, cell, nx, ny)
         return float(sum(gmsh.model.occ.getMass(2, s) for s in surface))
     finally:
         gmsh.model.remove()
@@ -265,8 +267,13 @@ def patch_box(cell: HoneycombCell, nx: int, ny: int) -> tuple[float, float, floa
     return 0.0, py / 4, nx * px, ny * py
 
 
-def _section(gmsh, cell: HoneycombCell, nx: int, ny: int) -> list[int]:
-    """Add the walls' section in z = 0 to the OCC model; its surface tags."""
+def _section(gmsh, cell: HoneycombCell, nx: int, ny: int,
+             infill: bool = False) -> tuple[list[int], list[int]]:
+    """Add the section in z = 0 to the OCC model; the walls' and the pores' surface tags.
+
+    Without ``infill`` there are no pore surfaces; with it, the pores are surfaces too,
+    sharing the walls' boundary curves (a conforming mesh).
+    """
     occ = gmsh.model.occ
     px, py = cell.pitch
     centres = np.array([[i * px, j * py + (i % 2) * py / 2]
@@ -277,9 +284,16 @@ def _section(gmsh, cell: HoneycombCell, nx: int, ny: int) -> list[int]:
     walls, _ = occ.cut(outer, pores)
     x0, y0, w, d = patch_box(cell, nx, ny)
     box = occ.addRectangle(x0, y0, 0.0, w, d)
+    filled = [(2, occ.addRectangle(x0, y0, 0.0, w, d))] if infill else []
     walls, _ = occ.intersect(walls, [(2, box)])
+    holes: list[tuple[int, int]] = []
+    if infill:
+        holes, _ = occ.cut(filled, walls, removeTool=False)
+        out, children = occ.fragment(walls, holes)
+        walls = [dt for kids in children[:len(walls)] for dt in kids]
+        holes = [dt for dt in out if dt not in walls]
     occ.synchronize()
-    return [tag for dim, tag in walls if dim == 2]
+    return [t for d_, t in walls if d_ == 2], [t for d_, t in holes if d_ == 2]
 
 
 def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> MeshData:
@@ -290,40 +304,68 @@ def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> Me
     here, so that every hexahedron's edges along z are straight and the walls stay
     prismatic. The patch's imperfection moves the nodes after that.
 
-    Groups: the volume ``walls``; the surfaces ``bottom`` (z = 0), ``top`` (z = height)
-    and ``sides`` (every other boundary face: the wall faces and the cut edges).
+    Groups: the volume ``walls``; the walls' faces ``bottom`` (z = 0) and ``top``
+    (z = height); ``sides`` (every other boundary face: the wall faces and the cut
+    edges). With an infill also the volume ``infill``, its faces ``infill_bottom`` and
+    ``infill_top``, and ``wall_infill``, the faces the walls share with the infill.
     """
+    region = None
     if comm.rank == 0:
-        xy, quads = section_mesh(patch)
+        xy, quads, region = section_mesh(patch)
         x, cells = extrude(xy, quads, patch.height, patch.layers)
         x = patch.perturbed(x)
+        region = np.tile(region, patch.layers)
     else:
         x, cells = np.zeros((0, 3)), np.zeros((0, 8), dtype=np.int64)
+    region = comm.bcast(region, root=0)
     msh = compat.create_hex_mesh(comm, cells, x)
     tdim = msh.topology.dim
-    msh.topology.create_connectivity(tdim - 1, tdim)
-    tol = 1e-6 * patch.height
-    bottom = dmesh.locate_entities_boundary(msh, tdim - 1, lambda p: np.abs(p[2]) < tol)
-    top = dmesh.locate_entities_boundary(msh, tdim - 1,
-                                         lambda p: np.abs(p[2] - patch.height) < tol)
-    boundary = dmesh.exterior_facet_indices(msh.topology)
-    sides = np.setdiff1d(boundary, np.union1d(bottom, top))
-    facets = np.concatenate([bottom, top, sides]).astype(np.int32)
-    values = np.concatenate([np.full(len(bottom), 1), np.full(len(top), 2),
-                             np.full(len(sides), 3)]).astype(np.int32)
-    order = np.argsort(facets)
-    facet_tags = dmesh.meshtags(msh, tdim - 1, facets[order], values[order])
-    n_cells = msh.topology.index_map(tdim).size_local + msh.topology.index_map(tdim).num_ghosts
+    cell_map = msh.topology.index_map(tdim)
+    n_cells = cell_map.size_local + cell_map.num_ghosts
+    cell_region = region[np.asarray(msh.topology.original_cell_index)[:n_cells]]
     cell_tags = dmesh.meshtags(msh, tdim, np.arange(n_cells, dtype=np.int32),
-                               np.ones(n_cells, dtype=np.int32))
+                               cell_region.astype(np.int32))
+    facets, values = _facet_groups(msh, cell_region, patch.height)
+    facet_tags = dmesh.meshtags(msh, tdim - 1, facets, values)
     names = {"walls": (3, 1), "bottom": (2, 1), "top": (2, 2), "sides": (2, 3)}
+    if patch.infill:
+        names |= {"infill": (3, 2), "infill_bottom": (2, 4), "infill_top": (2, 5),
+                  "wall_infill": (2, 6)}
     return MeshData(msh, cell_tags, facet_tags, names)
 
 
-def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray]:
-    """Quadrilateral mesh of the walls' section: node coordinates (n, 2), quads (m, 4).
+def _facet_groups(msh, cell_region: np.ndarray, height: float) -> tuple[np.ndarray, np.ndarray]:
+    """Facet indices (sorted) and their group tags (see :func:`honeycomb_mesh`)."""
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    tol = 1e-6 * height
+    bottom = dmesh.locate_entities_boundary(msh, tdim - 1, lambda p: np.abs(p[2]) < tol)
+    top = dmesh.locate_entities_boundary(msh, tdim - 1, lambda p: np.abs(p[2] - height) < tol)
+    boundary = dmesh.exterior_facet_indices(msh.topology)
+    sides = np.setdiff1d(boundary, np.union1d(bottom, top))
 
-    Quadrilaterals are counter-clockwise.
+    def infill(facets: np.ndarray) -> np.ndarray:
+        return np.array([cell_region[f2c.links(f)[0]] == 2 for f in facets], dtype=bool)
+
+    groups = [(bottom, np.where(infill(bottom), 4, 1)), (top, np.where(infill(top), 5, 2)),
+              (sides, np.full(len(sides), 3))]
+    n_facets = msh.topology.index_map(tdim - 1).size_local + \
+        msh.topology.index_map(tdim - 1).num_ghosts
+    shared = [f for f in range(n_facets) if len(cells := f2c.links(f)) == 2
+              and cell_region[cells[0]] != cell_region[cells[1]]]
+    groups.append((np.array(shared, dtype=np.int32), np.full(len(shared), 6)))
+    facets = np.concatenate([g[0] for g in groups]).astype(np.int32)
+    values = np.concatenate([g[1] for g in groups]).astype(np.int32)
+    order = np.argsort(facets)
+    return facets[order], values[order]
+
+
+def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Quadrilateral mesh of the section: nodes (n, 2), quads (m, 4), their region (m,).
+
+    Quadrilaterals are counter-clockwise; the region is 1 for a wall, 2 for the infill
+    of a pore (with :attr:`HoneycombPatch.infill`).
 
     Raises:
         InputError: gmsh left elements other than quadrilaterals.
@@ -336,7 +378,7 @@ def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray]:
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("honeycomb")
     try:
-        _section(gmsh, patch.cell, *patch.cells)
+        walls, pores = _section(gmsh, patch.cell, *patch.cells, infill=patch.infill)
         size = 2.0 * patch.element_size  # the subdivision halves it
         gmsh.option.setNumber("Mesh.MeshSizeMin", 0.5 * size)
         gmsh.option.setNumber("Mesh.MeshSizeMax", size)
@@ -344,11 +386,16 @@ def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray]:
         gmsh.option.setNumber("Mesh.RecombineAll", 1)
         gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1)  # quadrilaterals only
         gmsh.model.mesh.generate(2)
-        types, _tags, nodes = gmsh.model.mesh.getElements(2)
-        if list(types) != [3]:  # 3: 4-node quadrilateral
-            names = sorted(gmsh.model.mesh.getElementProperties(t)[0] for t in types)
-            raise InputError("size", f"the honeycomb section did not mesh with "
-                             f"quadrilaterals alone ({names}); try another element size")
+        elements, region = [], []
+        for tag_value, surfaces in ((1, walls), (2, pores)):
+            for surface in surfaces:
+                types, _tags, nodes = gmsh.model.mesh.getElements(2, surface)
+                if list(types) != [3]:  # 3: 4-node quadrilateral
+                    names = sorted(gmsh.model.mesh.getElementProperties(t)[0] for t in types)
+                    raise InputError("size", f"the honeycomb section did not mesh with "
+                                     f"quadrilaterals alone ({names}); try another size")
+                elements.append(np.asarray(nodes[0], dtype=np.int64))
+                region.append(np.full(len(nodes[0]) // 4, tag_value))
         tags, coords, _p = gmsh.model.mesh.getNodes()
     finally:
         gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 0)
@@ -358,7 +405,7 @@ def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray]:
             gmsh.finalize()
     index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
     index[tags.astype(np.int64)] = np.arange(len(tags))
-    quads = index[np.asarray(nodes[0], dtype=np.int64)].reshape(-1, 4)
+    quads = index[np.concatenate(elements)].reshape(-1, 4)
     used, quads = np.unique(quads, return_inverse=True)
     quads = quads.reshape(-1, 4)
     xy = np.asarray(coords).reshape(-1, 3)[used, :2]
@@ -366,7 +413,7 @@ def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray]:
     area2 = np.sum(p[:, :, 0] * np.roll(p[:, :, 1], -1, axis=1)
                    - p[:, :, 1] * np.roll(p[:, :, 0], -1, axis=1), axis=1)
     quads[area2 < 0] = quads[area2 < 0][:, ::-1]
-    return xy, quads
+    return xy, quads, np.concatenate(region)
 
 
 def extrude(xy: np.ndarray, quads: np.ndarray, height: float,
