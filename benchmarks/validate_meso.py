@@ -71,7 +71,7 @@ def main() -> None:
                        sets=("buckling=true",), ranks=2,
                        metrics=("modulus_MPa", "peak_stress_MPa", "buckling_strain"))
     pairs += study_runs("meso_compression", {"cells": ("1,1",),
-                                             "variant": ("original", "infill")},
+                                             "variant": ("original", "infill", "flange")},
                         out / "contact", sets=("buckling=true", "platen=contact"), ranks=2,
                         metrics=("modulus_MPa", "peak_stress_MPa", "buckling_strain"))
     lines += ["### `meso_compression`: C365 compression (2 ranks)", "",
@@ -109,6 +109,9 @@ def main() -> None:
         if variant == "infill":
             force = force + (-h["reaction_infill_infill_top_z_N"] if platen == "bonded"
                              else h["force_platen_infill_z_N"])
+        elif variant == "flange":
+            force = force + (-h["reaction_flange_flange_top_z_N"] if platen == "bonded"
+                             else h["force_platen_flange_z_N"])
         curves.append((h["t"] * s["parameters"]["strain"], force / footprint(s),
                        f"{row.values['cells']} cells, platen {platen}, {variant} "
                        f"({s['status']})", "o-"))

@@ -15,16 +15,19 @@ a picture of the buckled walls.
 
 The bottom platen is bonded; the top one is bonded too (default) or, with
 ``platen=contact``, a rigid tool that touches the wall edges with friction (the paper's
-original meso model; contact is enforced at the wall edges' element vertices). With
-``variant=infill`` the pores are filled with the paper's soft dummy infill (Table 3:
-E 0.3 MPa, nu 0; linear hexahedra), a second body bonded to the walls, which the
-platens hold or touch as they do the walls.
+original meso model; contact is enforced at the wall edges' element vertices). The
+paper's two remedies for its tool-wall penetration (Table 3): ``variant=infill`` fills
+the pores with a soft dummy infill (E 0.3 MPa, nu 0; linear hexahedra);
+``variant=flange`` puts a soft dummy flange (E 4 MPa, nu 0.21; ``flange_width`` into
+the pores, ``flange_thickness`` thick, our estimates of a geometry the paper does not
+give) along every wall's top edge. Either is a second body bonded to the walls, which
+the top platen holds or touches as it does the walls.
 
 Limits of this first meso model (issue 20, in progress): the walls are elastic (no
 fracture at the 0.067 strain of Table 1: ``max_wall_strain`` says where it would be
 passed), walls do not touch each other (no self-contact: the run is only meaningful
 before folds meet, well short of densification), the infill does not fracture (Table 3:
-0.010), and the paper's dummy flanges are not built yet.
+0.010) nor the flanges (0.067).
 
 Accuracy of the defaults: not yet studied (the wall tests give 1% in bending and 2.3%
 in buckling at their mesh sizes).
@@ -64,6 +67,7 @@ from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 INFILL_MODULUS, INFILL_POISSON = 0.3, 0.0  # the paper's dummy infill, Table 3 [MPa]
+FLANGE_MODULUS, FLANGE_POISSON = 4.0, 0.21  # the paper's dummy flanges, Table 3 [MPa]
 
 
 @dataclass(frozen=True)
@@ -87,7 +91,9 @@ class Params:
     stabilisation: float = 2e-4  # viscous stabilisation, dissipated energy fraction (0: none)
     platen: Literal["bonded", "contact"] = "bonded"  # top platen held to the walls or touching
     platen_friction: float = 0.36  # platen-wall friction when touching (tool-core, stated)
-    variant: Literal["original", "infill"] = "original"  # walls alone, or pores filled (Table 3)
+    variant: Literal["original", "infill", "flange"] = "original"  # walls alone or with dummies
+    flange_width: float = 1.0  # dummy flange width into the pores [mm] (our estimate)
+    flange_thickness: float = 0.3  # dummy flange thickness [mm] (our estimate)
     max_step: float = 0.05  # largest load step (fraction of the stroke)
 
 
@@ -95,35 +101,43 @@ def patch_of(p: Params) -> HoneycombPatch:
     """The honeycomb patch the parameters describe."""
     cell = HoneycombCell(p.wall_length, None, p.wall_thickness, p.angle_deg, p.double_walls)
     return HoneycombPatch(cell, tuple(p.cells), p.height, p.size / 2, p.layers,
-                          p.imperfection, p.seed, p.variant == "infill")
+                          p.imperfection, p.seed, p.variant == "infill",
+                          p.flange_width if p.variant == "flange" else 0.0,
+                          p.flange_thickness)
 
 
 def build(p: Params) -> Job:
-    require(p, positive=("wall_length", "wall_thickness", "height", "size", "wall_modulus"),
+    require(p, positive=("wall_length", "wall_thickness", "height", "size", "wall_modulus",
+                         "flange_width", "flange_thickness"),
             nonnegative=("imperfection", "stabilisation", "platen_friction"),
             fraction=("strain",))
     patch = patch_of(p)
     mesh = honeycomb_mesh(patch)
     material = ElasticSolid(IsotropicElasticity(p.wall_modulus, p.wall_poisson))
     stroke = p.strain * p.height
-    filled = p.variant == "infill"
-    walls = Body("walls", material, region="walls" if filled else None, degree=2)
+    split = p.variant != "original"  # the walls are one region of several
+    walls = Body("walls", material, region="walls" if split else None, degree=2)
     bodies = [walls]
-    # (body, its bottom face, its top face, its platen)
+    # (body, its bottom face or None, its top face, its platen)
     parts = [("walls", "bottom", "top", "platen")]
     interfaces = ()
-    if filled:  # Table 3's dummy infill, bonded to the walls
+    if p.variant == "infill":  # Table 3's dummy infill, bonded to the walls
         infill = ElasticSolid(IsotropicElasticity(INFILL_MODULUS, INFILL_POISSON))
         bodies.append(Body("infill", infill, region="infill", degree=1))
         parts.append(("infill", "infill_bottom", "infill_top", "platen_infill"))
         interfaces = (Interface("wall_infill", "walls", "infill", kind="bonded"),)
+    elif p.variant == "flange":  # Table 3's dummy flanges on the walls' top edges
+        flange = ElasticSolid(IsotropicElasticity(FLANGE_MODULUS, FLANGE_POISSON))
+        bodies.append(Body("flange", flange, region="flange", degree=2))
+        parts.append(("flange", None, "flange_top", "platen_flange"))
+        interfaces = (Interface("wall_flange", "walls", "flange", kind="bonded"),)
     bottoms = tuple(Displacement(b, bot, x=0.0, y=0.0, z=0.0, reaction=False)
-                    for b, bot, _t, _p in parts)
+                    for b, bot, _t, _p in parts if bot is not None)
     bonded = bottoms + tuple(Displacement(b, top, x=0.0, y=0.0, z=Linear(-stroke))
                              for b, _b, top, _p in parts)
     # the linear buckling analysis: the walls alone, both platens holding them (contact
     # and a bonded infill are not linear in the load)
-    held = (bottoms[0], bonded[len(parts)])  # the walls' bottom and top
+    held = (bottoms[0], bonded[len(bottoms)])  # the walls' bottom and top
     buckling_strains = (_linear_buckling(Scene("meso_buckling", mesh, (walls,), held),
                                          p.strain) if p.buckling else None)
     if p.platen == "bonded":

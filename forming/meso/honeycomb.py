@@ -102,9 +102,9 @@ class HoneycombCell:
         t, r = self.wall_thickness, self.ribbon_thickness
         return np.array([t, r, t, t, r, t])
 
-    def pore(self, centre: np.ndarray) -> np.ndarray:
-        """The open pore: the hexagon shrunk by half of each wall's thickness."""
-        return _offset(self.hexagon(centre), -self.edge_thickness() / 2)
+    def pore(self, centre: np.ndarray, shrink: float = 0.0) -> np.ndarray:
+        """The open pore: the hexagon shrunk by half of each wall's thickness, and more."""
+        return _offset(self.hexagon(centre), -self.edge_thickness() / 2 - shrink)
 
     def outline(self, centre: np.ndarray) -> np.ndarray:
         """The hexagon grown by half of each wall's thickness."""
@@ -162,6 +162,9 @@ class HoneycombPatch:
             random imperfection [mm] (0: perfect walls).
         seed: Seed of the imperfection.
         infill: Whether the pores are meshed too (the paper's dummy infill, Table 3).
+        flange: Width of a dummy flange along every wall's top edge, into the pores
+            [mm] (0: none; the paper's dummy flanges, Table 3, our geometry).
+        flange_thickness: Thickness of the flanges (the top layer of elements) [mm].
     """
 
     cell: HoneycombCell = HoneycombCell()
@@ -172,6 +175,8 @@ class HoneycombPatch:
     imperfection: float = 0.0
     seed: int = 0
     infill: bool = False
+    flange: float = 0.0
+    flange_thickness: float = 0.3
 
     def __post_init__(self) -> None:
         if len(self.cells) != 2 or any(int(n) != n or n < 1 for n in self.cells):
@@ -182,6 +187,13 @@ class HoneycombPatch:
             raise InputError("size", f"must be a positive length [mm], got {self.size!r}")
         if int(self.layers) != self.layers or self.layers < 1:
             raise InputError("layers", f"must be an integer >= 1, got {self.layers!r}")
+        if self.infill and self.flange > 0:
+            raise InputError("flange", "a patch has either an infill or flanges, not both")
+        if not (np.isfinite(self.flange) and self.flange >= 0):
+            raise InputError("flange", f"must be a width >= 0 [mm], got {self.flange!r}")
+        if self.flange > 0 and not (0 < self.flange_thickness < self.height):
+            raise InputError("flange_thickness", f"must lie between 0 and the height, got "
+                             f"{self.flange_thickness!r}")
         if not (np.isfinite(self.imperfection) and self.imperfection >= 0):
             raise InputError("imperfection", f"must be a length >= 0 [mm], got "
                              f"{self.imperfection!r}")
@@ -267,12 +279,13 @@ def patch_box(cell: HoneycombCell, nx: int, ny: int) -> tuple[float, float, floa
     return 0.0, py / 4, nx * px, ny * py
 
 
-def _section(gmsh, cell: HoneycombCell, nx: int, ny: int,
-             infill: bool = False) -> tuple[list[int], list[int]]:
-    """Add the section in z = 0 to the OCC model; the walls' and the pores' surface tags.
+def _section(gmsh, cell: HoneycombCell, nx: int, ny: int, infill: bool = False,
+             flange: float = 0.0) -> tuple[list[int], list[int]]:
+    """Add the section in z = 0 to the OCC model; the walls' and the other surfaces' tags.
 
-    Without ``infill`` there are no pore surfaces; with it, the pores are surfaces too,
-    sharing the walls' boundary curves (a conforming mesh).
+    The other surfaces are the pores (``infill``), or a ring of width ``flange`` inside
+    each pore along its walls (flanges), or none; they share the walls' boundary curves
+    (a conforming mesh).
     """
     occ = gmsh.model.occ
     px, py = cell.pitch
@@ -284,16 +297,22 @@ def _section(gmsh, cell: HoneycombCell, nx: int, ny: int,
     walls, _ = occ.cut(outer, pores)
     x0, y0, w, d = patch_box(cell, nx, ny)
     box = occ.addRectangle(x0, y0, 0.0, w, d)
-    filled = [(2, occ.addRectangle(x0, y0, 0.0, w, d))] if infill else []
-    walls, _ = occ.intersect(walls, [(2, box)])
-    holes: list[tuple[int, int]] = []
+    other: list[tuple[int, int]] = []
     if infill:
-        holes, _ = occ.cut(filled, walls, removeTool=False)
-        out, children = occ.fragment(walls, holes)
+        other = [(2, occ.addRectangle(x0, y0, 0.0, w, d))]
+    elif flange > 0:
+        rings = [(2, _polygon(gmsh, cell.pore(c))) for c in centres]
+        cores = [(2, _polygon(gmsh, cell.pore(c, flange))) for c in centres]
+        rings, _ = occ.cut(rings, cores)
+        other = occ.intersect(rings, [(2, occ.addRectangle(x0, y0, 0.0, w, d))])[0]
+    walls, _ = occ.intersect(walls, [(2, box)])
+    if other:
+        other, _ = occ.cut(other, walls, removeTool=False)
+        out, children = occ.fragment(walls, other)
         walls = [dt for kids in children[:len(walls)] for dt in kids]
-        holes = [dt for dt in out if dt not in walls]
+        other = [dt for dt in out if dt not in walls]
     occ.synchronize()
-    return [t for d_, t in walls if d_ == 2], [t for d_, t in holes if d_ == 2]
+    return [t for d_, t in walls if d_ == 2], [t for d_, t in other if d_ == 2]
 
 
 def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> MeshData:
@@ -307,14 +326,25 @@ def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> Me
     Groups: the volume ``walls``; the walls' faces ``bottom`` (z = 0) and ``top``
     (z = height); ``sides`` (every other boundary face: the wall faces and the cut
     edges). With an infill also the volume ``infill``, its faces ``infill_bottom`` and
-    ``infill_top``, and ``wall_infill``, the faces the walls share with the infill.
+    ``infill_top``, and ``wall_infill``, the faces the walls share with the infill; with
+    flanges the volume ``flange``, its top faces ``flange_top`` and ``wall_flange``.
     """
     region = None
     if comm.rank == 0:
         xy, quads, region = section_mesh(patch)
-        x, cells = extrude(xy, quads, patch.height, patch.layers)
-        x = patch.perturbed(x)
+        z = np.linspace(0.0, patch.height, patch.layers + 1)
+        if patch.flange > 0:  # a thin top layer: the flanges' thickness
+            z = np.append(np.linspace(0.0, patch.height - patch.flange_thickness,
+                                      patch.layers), patch.height)
+        x, cells = extrude(xy, quads, z)
         region = np.tile(region, patch.layers)
+        if patch.flange > 0:  # flanges only in the top layer
+            top = np.repeat(np.arange(patch.layers) == patch.layers - 1, len(quads))
+            keep = (region != 3) | top
+            cells, region = cells[keep], region[keep]
+            used, cells = np.unique(cells, return_inverse=True)
+            x, cells = x[used], cells.reshape(-1, 8)
+        x = patch.perturbed(x)
     else:
         x, cells = np.zeros((0, 3)), np.zeros((0, 8), dtype=np.int64)
     region = comm.bcast(region, root=0)
@@ -331,6 +361,8 @@ def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> Me
     if patch.infill:
         names |= {"infill": (3, 2), "infill_bottom": (2, 4), "infill_top": (2, 5),
                   "wall_infill": (2, 6)}
+    if patch.flange > 0:
+        names |= {"flange": (3, 3), "flange_top": (2, 7), "wall_flange": (2, 8)}
     return MeshData(msh, cell_tags, facet_tags, names)
 
 
@@ -345,16 +377,20 @@ def _facet_groups(msh, cell_region: np.ndarray, height: float) -> tuple[np.ndarr
     boundary = dmesh.exterior_facet_indices(msh.topology)
     sides = np.setdiff1d(boundary, np.union1d(bottom, top))
 
-    def infill(facets: np.ndarray) -> np.ndarray:
-        return np.array([cell_region[f2c.links(f)[0]] == 2 for f in facets], dtype=bool)
+    def owner(facets: np.ndarray) -> np.ndarray:
+        return np.array([cell_region[f2c.links(f)[0]] for f in facets], dtype=np.int32)
 
-    groups = [(bottom, np.where(infill(bottom), 4, 1)), (top, np.where(infill(top), 5, 2)),
+    # bottom: walls 1, infill 4; top: walls 2, infill 5, flanges 7
+    groups = [(bottom, np.array([1, 1, 4, 1])[owner(bottom)]),
+              (top, np.array([2, 2, 5, 7])[owner(top)]),
               (sides, np.full(len(sides), 3))]
     n_facets = msh.topology.index_map(tdim - 1).size_local + \
         msh.topology.index_map(tdim - 1).num_ghosts
     shared = [f for f in range(n_facets) if len(cells := f2c.links(f)) == 2
               and cell_region[cells[0]] != cell_region[cells[1]]]
-    groups.append((np.array(shared, dtype=np.int32), np.full(len(shared), 6)))
+    other = [max(cell_region[f2c.links(f)]) for f in shared]  # the walls' partner
+    groups.append((np.array(shared, dtype=np.int32),
+                   np.where(np.array(other, dtype=np.int32) == 3, 8, 6)))
     facets = np.concatenate([g[0] for g in groups]).astype(np.int32)
     values = np.concatenate([g[1] for g in groups]).astype(np.int32)
     order = np.argsort(facets)
@@ -365,7 +401,7 @@ def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray, np.ndar
     """Quadrilateral mesh of the section: nodes (n, 2), quads (m, 4), their region (m,).
 
     Quadrilaterals are counter-clockwise; the region is 1 for a wall, 2 for the infill
-    of a pore (with :attr:`HoneycombPatch.infill`).
+    of a pore (with :attr:`HoneycombPatch.infill`), 3 for a flange.
 
     Raises:
         InputError: gmsh left elements other than quadrilaterals.
@@ -378,7 +414,8 @@ def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray, np.ndar
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("honeycomb")
     try:
-        walls, pores = _section(gmsh, patch.cell, *patch.cells, infill=patch.infill)
+        walls, pores = _section(gmsh, patch.cell, *patch.cells, infill=patch.infill,
+                                flange=patch.flange)
         size = 2.0 * patch.element_size  # the subdivision halves it
         gmsh.option.setNumber("Mesh.MeshSizeMin", 0.5 * size)
         gmsh.option.setNumber("Mesh.MeshSizeMax", size)
@@ -387,7 +424,7 @@ def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray, np.ndar
         gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1)  # quadrilaterals only
         gmsh.model.mesh.generate(2)
         elements, region = [], []
-        for tag_value, surfaces in ((1, walls), (2, pores)):
+        for tag_value, surfaces in ((1, walls), (3 if patch.flange > 0 else 2, pores)):
             for surface in surfaces:
                 types, _tags, nodes = gmsh.model.mesh.getElements(2, surface)
                 if list(types) != [3]:  # 3: 4-node quadrilateral
@@ -416,11 +453,13 @@ def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray, np.ndar
     return xy, quads, np.concatenate(region)
 
 
-def extrude(xy: np.ndarray, quads: np.ndarray, height: float,
-            layers: int) -> tuple[np.ndarray, np.ndarray]:
-    """Stack a counter-clockwise quadrilateral mesh into hexahedra (gmsh node order)."""
+def extrude(xy: np.ndarray, quads: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Stack a counter-clockwise quadrilateral mesh into hexahedra (gmsh node order).
+
+    One layer of hexahedra between each two consecutive levels of ``z``.
+    """
     n = len(xy)
-    z = np.linspace(0.0, height, layers + 1)
+    layers = len(z) - 1
     x = np.column_stack([np.tile(xy, (layers + 1, 1)), np.repeat(z, n)])
     cells = np.concatenate([np.hstack([quads + k * n, quads + (k + 1) * n])
                             for k in range(layers)])
