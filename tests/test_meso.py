@@ -24,10 +24,10 @@ from forming.materials.solids import ElasticSolid
 from forming.mesh import box
 from forming.meso.checks import WALL_MODULUS as E_WALL
 from forming.meso.checks import WALL_POISSON as NU_WALL
-from forming.meso.checks import cantilever_ratio, plate_buckling_ratios, wall_model
+from forming.meso.checks import cantilever_ratio, plate_buckling_ratios, square_plate
 from forming.meso.honeycomb import HoneycombCell, HoneycombPatch, honeycomb_mesh
 from forming.model import Model
-from forming.scene import Body, Displacement, Linear, Scene, Traction
+from forming.scene import Body, Displacement, Scene
 from forming.solver.buckling import buckling_modes
 from forming.solver.implicit import ImplicitSolver
 
@@ -110,17 +110,23 @@ def test_plate_buckling_load():
 def test_buckling_modes_leave_the_model_undeformed():
     """The buckling analysis returns the model to t = 0 with zero displacement, and scales
     each mode to a largest nodal move of 1 (over all ranks)."""
-    model = wall_model(box((5.0, 5.0, 0.2), (2, 2, 1)),
-                  (Displacement("wall", "xmin", x=0.0, reaction=False),
-                   Displacement("wall", "ymin", y=0.0, reaction=False),
-                   Displacement("wall", "xmax", z=0.0, reaction=False),
-                   Displacement("wall", "ymax", z=0.0, reaction=False)),
-                  (Traction("wall", "xmax", x=Linear(-1.0)),))
+    model = square_plate(10.0, 0.2, 2)
     modes = buckling_modes(model, ImplicitSolver(model), n_modes=1)
     assert modes.factors[0] > 0
     assert np.allclose(model.bodies["wall"].u.x.array, 0.0) and model.t == 0.0
     peak = float(np.abs(modes.modes[0][0]).max())
     assert model.comm.allreduce(peak, op=MPI.MAX) == pytest.approx(1.0)
+
+
+def _small_run(folder, *sets: str) -> tuple[dict, np.ndarray]:
+    """A 1 x 1 patch, 10 mm high, 3 layers, to 1% strain unless ``sets`` say otherwise:
+    its summary's metrics (the run must complete) and its history."""
+    from forming.case import run_case
+
+    s = run_case("meso_compression", folder, ["cells=1,1", "height=10", "layers=3",
+                                               "strain=0.01", *sets])
+    assert s["status"] == "completed", s.get("reason")
+    return s["metrics"], np.genfromtxt(folder / "history.csv", delimiter=",", names=True)
 
 
 def test_meso_compression_modulus_and_stabilised_buckling(tmp_path):
@@ -138,15 +144,9 @@ def test_meso_compression_modulus_and_stabilised_buckling(tmp_path):
     A failure means the meso walls or the stabilisation changed: a stiffer modulus points
     at the mesh or the walls' thickness, a failed run at the stabilisation.
     """
-    from forming.case import run_case
-
-    s = run_case("meso_compression", tmp_path, ["cells=1,1", "height=10", "layers=3",
-                                                 "strain=0.05"])
-    m = s["metrics"]
-    assert s["status"] == "completed", s.get("reason")
+    m, h = _small_run(tmp_path, "strain=0.05")
     assert m["modulus_MPa"] == pytest.approx(m["gibson_ashby_modulus_MPa"], rel=0.05)
     assert m["peak_stress_MPa"] > 0 and 0 < m["max_wall_strain"] < 0.5
-    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
     dissipated, work = h["stabilisation_energy_Nmm"][-1], h["internal_work_Nmm"][-1]
     assert 0 < dissipated < 0.01 * work
     stroke, force = h["stroke_mm"][1], -h["reaction_top_z_N"][1]
@@ -160,14 +160,8 @@ def test_meso_compression_with_a_touching_platen(tmp_path):
     buckle) the walls stand on it as on a bonded platen: the modulus is Gibson and Ashby's
     within 5%, with the contact's penetration inside its tolerance. A failure means the
     contact of a quadratic body with a tool (vertex quadrature) misbehaves."""
-    from forming.case import run_case
-
-    s = run_case("meso_compression", tmp_path, ["cells=1,1", "height=10", "layers=3",
-                                                 "strain=0.01", "platen=contact"])
-    m = s["metrics"]
-    assert s["status"] == "completed", s.get("reason")
+    m, h = _small_run(tmp_path, "platen=contact")
     assert m["modulus_MPa"] == pytest.approx(m["gibson_ashby_modulus_MPa"], rel=0.05)
-    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
     assert h["force_platen_z_N"][-1] > 0
 
 
@@ -177,16 +171,10 @@ def test_meso_compression_with_the_dummy_infill(tmp_path):
     E_s rho + E_infill (1 - rho), within 5% (the infill adds 0.7% to the walls' 37.2 MPa),
     and the walls and the infill each carry their share of the platen force. A failure
     means the two-body meso model (regions, the bonded wall-infill interface) is wrong."""
-    from forming.case import run_case
-
-    s = run_case("meso_compression", tmp_path, ["cells=1,1", "height=10", "layers=3",
-                                                 "strain=0.01", "variant=infill"])
-    m = s["metrics"]
-    assert s["status"] == "completed", s.get("reason")
+    m, h = _small_run(tmp_path, "variant=infill")
     rho = m["relative_density"]
     assert m["modulus_MPa"] == pytest.approx(m["gibson_ashby_modulus_MPa"]
                                              + 0.3 * (1 - rho), rel=0.05)
-    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
     walls, infill = -h["reaction_walls_top_z_N"][-1], -h["reaction_infill_infill_top_z_N"][-1]
     assert 0 < infill < 0.05 * walls
 
@@ -197,14 +185,8 @@ def test_meso_compression_with_dummy_flanges(tmp_path):
     the walls' modulus (Gibson and Ashby within 5%: the flanges are a thin soft cap), and
     the top platen pulls on the flanges too. A failure means the flange region (a top
     layer of its own, its faces) or its coupling to the walls is wrong."""
-    from forming.case import run_case
-
-    s = run_case("meso_compression", tmp_path, ["cells=1,1", "height=10", "layers=3",
-                                                 "strain=0.01", "variant=flange"])
-    m = s["metrics"]
-    assert s["status"] == "completed", s.get("reason")
+    m, h = _small_run(tmp_path, "variant=flange")
     assert m["modulus_MPa"] == pytest.approx(m["gibson_ashby_modulus_MPa"], rel=0.05)
-    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
     walls, flange = -h["reaction_walls_top_z_N"][-1], -h["reaction_flange_flange_top_z_N"][-1]
     assert walls > 0 and flange != 0.0
 

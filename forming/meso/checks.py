@@ -56,6 +56,21 @@ def cantilever_ratio(cells: int = 10, length: float = 20.0, width: float = 2.0,
     return deflection / beam
 
 
+def square_plate(side: float, thickness: float, cells: int) -> Model:
+    """A quarter of a simply supported square plate under uniaxial compression (1 MPa).
+
+    Symmetry on ``xmin`` and ``ymin``, the edges ``xmax`` and ``ymax`` held out of plane,
+    a dead compressive traction on ``xmax``; ``cells`` x ``cells`` quadratic hexahedra,
+    one through the thickness.
+    """
+    return wall_model(box((side / 2, side / 2, thickness), (cells, cells, 1)),
+                      (Displacement("wall", "xmin", x=0.0, reaction=False),
+                       Displacement("wall", "ymin", y=0.0, reaction=False),
+                       Displacement("wall", "xmax", z=0.0, reaction=False),
+                       Displacement("wall", "ymax", z=0.0, reaction=False)),
+                      (Traction("wall", "xmax", x=Linear(-1.0)),))
+
+
 def plate_buckling_ratios(cells: int = 8, side: float = 10.0,
                           thickness: float = 0.2) -> tuple[float, float]:
     """First two buckling stresses of a simply supported square plate over plate theory.
@@ -65,12 +80,7 @@ def plate_buckling_ratios(cells: int = 8, side: float = 10.0,
     ``k pi^2 E / (12 (1 - nu^2)) (t/b)^2`` with ``k = 4`` (one half-wave each way) and
     ``k = (3 + 1/3)^2`` (three half-waves along the load, the next symmetric mode).
     """
-    model = wall_model(box((side / 2, side / 2, thickness), (cells, cells, 1)),
-                  (Displacement("wall", "xmin", x=0.0, reaction=False),
-                   Displacement("wall", "ymin", y=0.0, reaction=False),
-                   Displacement("wall", "xmax", z=0.0, reaction=False),
-                   Displacement("wall", "ymax", z=0.0, reaction=False)),
-                  (Traction("wall", "xmax", x=Linear(-1.0)),))
+    model = square_plate(side, thickness, cells)
     modes = buckling_modes(model, ImplicitSolver(model), n_modes=2)
     plate = math.pi**2 * WALL_MODULUS / (12 * (1 - WALL_POISSON**2)) * (thickness / side) ** 2
     return float(modes.factors[0] / (4.0 * plate)), float(modes.factors[1]

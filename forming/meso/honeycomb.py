@@ -15,6 +15,7 @@ its full thickness. The section is meshed with quadrilaterals and extruded along
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 
@@ -245,16 +246,23 @@ class HoneycombPatch:
 
 def section_area(cell: HoneycombCell, nx: int, ny: int) -> float:
     """Area of the walls of a patch: its outline's area minus its pores' area."""
+    with _gmsh_model("honeycomb_area") as gmsh:
+        surface, _pores = _section(gmsh, cell, nx, ny)
+        return float(sum(gmsh.model.occ.getMass(2, s) for s in surface))
+
+
+@contextlib.contextmanager
+def _gmsh_model(name: str):
+    """A fresh gmsh model (gmsh started and stopped here if nobody else did)."""
     import gmsh
 
     initialised = gmsh.isInitialized()
     if not initialised:
         gmsh.initialize(interruptible=False)
     gmsh.option.setNumber("General.Terminal", 0)
-    gmsh.model.add("honeycomb_area")
+    gmsh.model.add(name)
     try:
-        surface, _pores = _section(gmsh, cell, nx, ny)
-        return float(sum(gmsh.model.occ.getMass(2, s) for s in surface))
+        yield gmsh
     finally:
         gmsh.model.remove()
         if not initialised:
@@ -397,6 +405,26 @@ def _facet_groups(msh, cell_region: np.ndarray, height: float) -> tuple[np.ndarr
     return facets[order], values[order]
 
 
+@contextlib.contextmanager
+def _quad_options(size: float):
+    """Options for an all-quadrilateral gmsh mesh of element size ``size / 2``.
+
+    A frontal-Delaunay mesh of size ``size``, recombined, every element split in four.
+    """
+    import gmsh
+
+    gmsh.option.setNumber("Mesh.MeshSizeMin", 0.5 * size)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+    gmsh.option.setNumber("Mesh.Algorithm", 8)
+    gmsh.option.setNumber("Mesh.RecombineAll", 1)
+    gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1)
+    try:
+        yield
+    finally:
+        gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 0)
+        gmsh.option.setNumber("Mesh.RecombineAll", 0)
+
+
 def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Quadrilateral mesh of the section: nodes (n, 2), quads (m, 4), their region (m,).
 
@@ -406,22 +434,9 @@ def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray, np.ndar
     Raises:
         InputError: gmsh left elements other than quadrilaterals.
     """
-    import gmsh
-
-    initialised = gmsh.isInitialized()
-    if not initialised:
-        gmsh.initialize(interruptible=False)
-    gmsh.option.setNumber("General.Terminal", 0)
-    gmsh.model.add("honeycomb")
-    try:
+    with _gmsh_model("honeycomb") as gmsh, _quad_options(2.0 * patch.element_size):
         walls, pores = _section(gmsh, patch.cell, *patch.cells, infill=patch.infill,
                                 flange=patch.flange)
-        size = 2.0 * patch.element_size  # the subdivision halves it
-        gmsh.option.setNumber("Mesh.MeshSizeMin", 0.5 * size)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        gmsh.option.setNumber("Mesh.Algorithm", 8)  # frontal-Delaunay for quadrilaterals
-        gmsh.option.setNumber("Mesh.RecombineAll", 1)
-        gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1)  # quadrilaterals only
         gmsh.model.mesh.generate(2)
         elements, region = [], []
         for tag_value, surfaces in ((1, walls), (3 if patch.flange > 0 else 2, pores)):
@@ -434,12 +449,6 @@ def section_mesh(patch: HoneycombPatch) -> tuple[np.ndarray, np.ndarray, np.ndar
                 elements.append(np.asarray(nodes[0], dtype=np.int64))
                 region.append(np.full(len(nodes[0]) // 4, tag_value))
         tags, coords, _p = gmsh.model.mesh.getNodes()
-    finally:
-        gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 0)
-        gmsh.option.setNumber("Mesh.RecombineAll", 0)
-        gmsh.model.remove()
-        if not initialised:
-            gmsh.finalize()
     index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
     index[tags.astype(np.int64)] = np.arange(len(tags))
     quads = index[np.concatenate(elements)].reshape(-1, 4)
