@@ -79,7 +79,8 @@ def main() -> None:
               "strain 0.06, 20 mm high, 8 layers of elements, in-plane size 0.6 mm. The "
               "bottom platen holds the walls; the top one holds them too (bonded) or touches "
               "them with friction 0.36 (contact: the paper's original meso model, and with "
-              "`variant=infill` its dummy infill, Table 3).", "",
+              "`variant=infill` or `variant=flange` its dummy infill or flanges, Table 3).",
+              "",
               "| patch | top platen | variant | status | unknowns | relative density "
               "| modulus [MPa] | E_s x rel. density [MPa] | linear buckling strain "
               "| plate buckling strain (k = 4) | stress at the end [MPa] "
