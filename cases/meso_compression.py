@@ -219,7 +219,7 @@ def build(p: Params) -> Job:
 
 
 def _linear_buckling(scene: Scene, strain: float) -> np.ndarray:
-    """Nominal strains at which the perfect patch buckles (linear buckling analysis)."""
+    """Nominal strains at which the patch as meshed (with its imperfection) buckles."""
     from forming.model import Model
     from forming.solver.buckling import buckling_modes
     from forming.solver.implicit import ImplicitSolver

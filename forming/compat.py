@@ -63,8 +63,13 @@ def model_to_mesh(model, comm, rank: int = 0, gdim: int = 3):
     Returns the ``MeshData`` of :func:`dolfinx.io.gmsh.model_to_mesh` (mesh, cell_tags,
     facet_tags, physical_groups, ...).
     """
-    partitioner = dolfinx.mesh.create_cell_partitioner(dolfinx.mesh.GhostMode.shared_facet, 2)
-    return dolfinx.io.gmsh.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
+    return dolfinx.io.gmsh.model_to_mesh(model, comm, rank, gdim=gdim,
+                                         partitioner=_shared_facet_partitioner())
+
+
+def _shared_facet_partitioner():
+    """Cells partitioned with the facets between ranks ghosted (interface integrals)."""
+    return dolfinx.mesh.create_cell_partitioner(dolfinx.mesh.GhostMode.shared_facet, 2)
 
 
 def create_hex_mesh(comm, cells, x):
@@ -78,9 +83,8 @@ def create_hex_mesh(comm, cells, x):
 
     perm = dolfinx.io.gmsh.cell_perm_array(dolfinx.mesh.CellType.hexahedron, 8)
     element = ufl.Mesh(basix.ufl.element("Lagrange", "hexahedron", 1, shape=(3,)))
-    partitioner = dolfinx.mesh.create_cell_partitioner(dolfinx.mesh.GhostMode.shared_facet, 2)
     return dolfinx.mesh.create_mesh(comm, np.asarray(cells, dtype=np.int64)[:, perm], element,
-                                    np.asarray(x, dtype=float), partitioner)
+                                    np.asarray(x, dtype=float), _shared_facet_partitioner())
 
 
 def vtx_writer(comm, path, functions):

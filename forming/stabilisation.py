@@ -48,6 +48,7 @@ class ViscousStabilisation:
         self.bodies = bodies
         self.c = 0.0
         self.c_over_dt = fem.Constant(mesh, 0.0)
+        self._comm = mesh.comm
         self.u_n = {n: b.u.copy() for n, b in bodies.items()}
         # one form per body: the bodies' measures carry their own subdomain data
         self._du2 = [fem.form(ufl.inner(b.u - self.u_n[n], b.u - self.u_n[n]) * b.dx,
@@ -89,7 +90,7 @@ class ViscousStabilisation:
             step_work += 0.5 * float(np.dot(self._f_n[n][:owned] + f.array[:owned], du))
             self._f_n[n][:] = f.array
             self.u_n[n].x.array[:] = b.u.x.array
-        step_work = b.mesh.comm.allreduce(step_work)
+        step_work = self._comm.allreduce(step_work)
         self.internal_work += step_work
         self.energy += float(self.c_over_dt.value) * du2
         if self.c == 0.0 and du2 > 0.0 and self._dt > 0.0:

@@ -117,9 +117,13 @@ class HoneycombCell:
 
 
 def cell_centres(cell: HoneycombCell, nx: int, ny: int) -> np.ndarray:
-    """Centres of an ``nx`` x ``ny`` patch: columns along x, odd columns shifted by half a pitch."""
+    """Centres of every cell whose walls reach an ``nx`` x ``ny`` patch's rectangle.
+
+    Columns along x, odd columns shifted by half a pitch; one more cell on every side.
+    """
     px, py = cell.pitch
-    return np.array([[i * px, j * py + (i % 2) * py / 2] for i in range(nx) for j in range(ny)])
+    return np.array([[i * px, j * py + (i % 2) * py / 2]
+                     for i in range(-1, nx + 2) for j in range(-1, ny + 2)])
 
 
 def _offset(v: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -296,9 +300,7 @@ def _section(gmsh, cell: HoneycombCell, nx: int, ny: int, infill: bool = False,
     (a conforming mesh).
     """
     occ = gmsh.model.occ
-    px, py = cell.pitch
-    centres = np.array([[i * px, j * py + (i % 2) * py / 2]
-                        for i in range(-1, nx + 2) for j in range(-1, ny + 2)])
+    centres = cell_centres(cell, nx, ny)
     outer = [(2, _polygon(gmsh, cell.outline(c))) for c in centres]
     pores = [(2, _polygon(gmsh, cell.pore(c))) for c in centres]
     outer, _ = occ.fuse(outer[:1], outer[1:])

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from dolfinx.fem.petsc import assign  # noqa: I001
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
@@ -105,7 +106,7 @@ def buckling_modes(model: Model, solver: ImplicitSolver, n_modes: int = 3,
                 b.u.x.scatter_forward()
             arrays = [b.u.x.array.copy() for b in bodies]
             peak = max(float(np.abs(a).max()) if a.size else 0.0 for a in arrays)
-            peak = model.comm.allreduce(peak, op=_max())
+            peak = model.comm.allreduce(peak, op=MPI.MAX)
             found.append((1.0 / theta, [a / peak for a in arrays]))
     for b in bodies:
         b.u.x.array[:] = 0.0
@@ -119,9 +120,3 @@ def buckling_modes(model: Model, solver: ImplicitSolver, n_modes: int = 3,
     found.sort(key=lambda item: item[0])
     found = found[:n_modes]
     return BucklingModes(np.array([f for f, _m in found]), [m for _f, m in found])
-
-
-def _max():
-    from mpi4py import MPI
-
-    return MPI.MAX
