@@ -93,10 +93,13 @@ class SolidBody(BodyBase):
         self.plastic: PlasticState | None = (
             PlasticState.zeros(self.n_points) if self.material.plastic else None
         )
-        self._evp_cells = None  # cell means of the plastic strain (output)
+        self.damaging = self.material.kernel_data().damage
+        self._cells = self._band_geometry() if self.damaging else None
+        self._evp_cells = None  # cell means of the plastic strain or damage (output)
         if self.plastic is not None:
-            self._evp_cells = fem.Function(fem.functionspace(msh, ("DG", 0)),
-                                           name="volumetric_plastic_strain")
+            self._evp_cells = fem.Function(
+                fem.functionspace(msh, ("DG", 0)),
+                name="damage" if self.damaging else "volumetric_plastic_strain")
         self._evaluated_at: np.ndarray | None = None
         self._has_tangent = False
         travel = scene.travel_mm()
@@ -105,6 +108,14 @@ class SolidBody(BodyBase):
             raise InputError("material.viscosity", "a viscous regularisation is per mm of "
                              "travel, and nothing in the scene moves: give Scene.travel")
         self._warm_kernel()
+
+    def _band_geometry(self) -> tuple[np.ndarray, int]:
+        """Inverse Jacobians at the owned cells' centres and points per cell (crack bands)."""
+        centre = np.full((1, 3), 0.5)
+        jac = fem.Expression(ufl.Jacobian(self.mesh), centre)
+        j = jac.eval(self.mesh, self.point_cells).reshape(-1, 3, 3)
+        ginv = np.linalg.inv(j).reshape(-1, 9) if j.size else np.zeros((0, 9))
+        return np.ascontiguousarray(ginv), self.QS.dofmap.list.shape[1]
 
     def _warm_kernel(self) -> None:
         """Compile (or load from cache) the numba kernel before timing starts."""
@@ -152,7 +163,7 @@ class SolidBody(BodyBase):
         res = evaluate(
             self.material, cm, None if ps is None else ps.ep, None if ps is None else ps.evp,
             want_tangent=want_tangent, load_increment=self.load_increment, frozen=frozen,
-            travel=self.travel,
+            travel=self.travel, cells=self._cells,
         )
         self.kernel_seconds += time.perf_counter() - t0
         if res.n_failed:
@@ -212,7 +223,8 @@ class SolidBody(BodyBase):
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
                                 plastic_floor: float = 0.3) -> HexInternalForce | None:
         """Element loops for the explicit solver on P1 hexahedra; None: use the forms."""
-        if self.mesh.topology.cell_name() != "hexahedron" or self.spec.degree != 1:
+        if (self.mesh.topology.cell_name() != "hexahedron" or self.spec.degree != 1
+                or self.damaging):
             return None
         return HexInternalForce(self, integration, hourglass, density, plastic_floor)
 
@@ -223,13 +235,16 @@ class SolidBody(BodyBase):
     # -- outputs -------------------------------------------------------------------------
     def output_fields(self) -> dict[str, list[fem.Function]]:
         """ParaView fields besides the displacement: file stem -> functions."""
-        return {} if self._evp_cells is None else {"plastic_strain": [self._evp_cells]}
+        if self._evp_cells is None:
+            return {}
+        return {"damage" if self.damaging else "plastic_strain": [self._evp_cells]}
 
     def update_output(self) -> None:
-        """Cell means of the converged plastic strain into the output fields."""
+        """Cell means of the converged plastic strain (or damage) into the output fields."""
         if self.plastic is not None:
             f = self._evp_cells
-            f.x.array[: self.n_local_cells] = self.cell_average(self.plastic.evp)
+            f.x.array[: self.n_local_cells] = self.cell_average(
+                self.plastic.ep[:, 0] if self.damaging else self.plastic.evp)
             f.x.scatter_forward()
 
     def min_det_F(self) -> float:
@@ -250,6 +265,8 @@ class SolidBody(BodyBase):
         The hardening law is extrapolated past the curve's last point; a run that gets
         there depends on an extrapolation nobody measured.
         """
+        if self.damaging:
+            return self._band_warnings()
         table = getattr(self.material, "hardening", None)
         if self.plastic is None or table is None:
             return []
@@ -262,6 +279,24 @@ class SolidBody(BodyBase):
                 f"point of its compression curve ({last:.3g}, nominal strain "
                 f"{curve.strain[-1]:g}, from {curve.source}): the hardening was extrapolated"]
 
+    def _band_warnings(self) -> list[str]:
+        """Crack bands wider than the material's widest (collective)."""
+        widest = self.material.widest_band
+        wide = self.mesh.comm.allreduce(int(np.count_nonzero(self.plastic.ep[:, 1] > widest)))
+        if not wide:
+            return []
+        return [f"body {self.name}: {wide} damaged points have crack bands wider than "
+                f"{widest:.3g} mm (2 G_f / (sigma_f eps_f)): they soften as steeply as the law "
+                "allows and dissipate more than the fracture energy; refine the mesh"]
+
+    def damage(self) -> np.ndarray | None:
+        """Converged damage per quadrature point (None unless the material fractures)."""
+        return self.plastic.ep[:, 0] if self.damaging else None
+
+    def dissipated_density(self) -> np.ndarray | None:
+        """Energy fracture dissipated per unit reference volume at each point [MPa]."""
+        return self.plastic.ep[:, 2] if self.damaging else None
+
     def volumetric_plastic_strain(self) -> np.ndarray | None:
         """Converged volumetric plastic strain per quadrature point (None if elastic)."""
-        return None if self.plastic is None else self.plastic.evp
+        return None if self.plastic is None or self.damaging else self.plastic.evp

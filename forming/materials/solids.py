@@ -19,6 +19,7 @@ from forming.materials import kernels
 from forming.materials.curves import CompressionCurve, pchip_slopes
 from forming.materials.elasticity import Elasticity
 from forming.materials.kernels import N_PROPS, PROP_ALPHA, PROP_PT, PROP_VISC
+from forming.materials.kernels.damage import damage_points
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +44,7 @@ class KernelData(NamedTuple):
     xs: np.ndarray
     ys: np.ndarray
     ds: np.ndarray
+    damage: bool = False  # history is damage (:mod:`.kernels.damage`), not plasticity
 
 
 class PointMaterial(Protocol):
@@ -78,6 +80,7 @@ def evaluate(
     frozen: bool = False,
     travel: float = 1.0,
     tangent: Literal["closed", "difference"] = "closed",
+    cells: tuple[np.ndarray, int] | None = None,
 ) -> PointResult:
     """Evaluate a point material at right Cauchy-Green tensors ``cmats`` (n, 9).
 
@@ -92,6 +95,12 @@ def evaluate(
     ``tangent`` chooses the closed-form consistent tangent (default) or the central
     difference of the stress update with relative step ``h`` (13 updates per point;
     kept to verify the closed form).
+    ``cells`` gives a damaging material (:mod:`forming.materials.fracture`) the inverse
+    Jacobians of the cells at their centres, (cells, 9), and the number of points per
+    cell, for its crack bands; without it every point lies in a unit cube. Its history
+    is ``ep`` = ``[d, h, D, Y, 0, 0]`` (damage, band width, dissipated energy density,
+    energy release rate) and ``evp`` = the largest principal strain reached; it has the
+    closed-form tangent only, and ``frozen`` returns its history unchanged.
     """
     if tangent not in _TANGENTS:
         raise InputError("tangent", f"must be one of {sorted(_TANGENTS)}, got {tangent!r}")
@@ -107,6 +116,16 @@ def evaluate(
     ep_in = np.zeros((n, 6)) if ep_n is None else np.ascontiguousarray(ep_n)
     evp_in = np.zeros(n) if evp_n is None else np.ascontiguousarray(evp_n)
     ep_out, evp_out = ep_in.copy(), evp_in.copy()
+    if k.damage:
+        ginv, per_cell = (np.eye(3).reshape(1, 9), n) if cells is None else cells
+        s_tmp, h_tmp = np.zeros((n, 6)), np.zeros(n)
+        nbad, worst = damage_points(cm, ep_in, evp_in, k.cel, k.measure, k.props,
+                                    np.ascontiguousarray(ginv), max(int(per_cell), 1), s,
+                                    d, s_tmp, h_tmp, want_tangent)
+        if not frozen:
+            ep_out, evp_out = s_tmp, h_tmp
+        return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad),
+                           int(worst))
     if frozen:  # elastic about the plastic state: no return mapping, state unchanged
         nbad, worst = kernels.foam_frozen_points(cm, ep_in, k.cel, k.measure, s, d,
                                                  mode, h)
@@ -136,6 +155,9 @@ def point_stress(material: PointMaterial, cmats: np.ndarray, ep_n: np.ndarray,
         (number of points with a non-zero status, worst status).
     """
     k = material.kernel_data()
+    if k.damage:
+        raise InputError("material", "a fracturing solid is evaluated through evaluate() "
+                         "(its crack bands need the cells), not point_stress()")
     if not k.plastic:
         return kernels.elastic_points(cmats, k.cel, k.measure, s_out, _NO_TANGENT,
                                       kernels.TANGENT_NONE, 0.0)
@@ -156,7 +178,8 @@ def _props(material: PointMaterial, k: KernelData, load_increment: float,
     return k.props
 
 
-def _measure(name: str) -> int:
+def measure_code(name: str) -> int:
+    """The kernels' code of a strain measure; :class:`InputError` if unknown."""
     if name not in _MEASURES:
         raise InputError("material.strain_measure",
                          f"must be one of {sorted(_MEASURES)}, got {name!r}")
@@ -186,7 +209,7 @@ class ElasticSolid:
     density: float | None = None
 
     def __post_init__(self) -> None:
-        _measure(self.strain_measure)
+        measure_code(self.strain_measure)
         check_density(self.density)
 
     @property
@@ -198,7 +221,7 @@ class ElasticSolid:
     def _data(self) -> KernelData:
         empty = np.zeros(1)
         return KernelData(
-            self.elasticity.stiffness(), _measure(self.strain_measure), False,
+            self.elasticity.stiffness(), measure_code(self.strain_measure), False,
             np.zeros(N_PROPS), empty, empty, empty,
         )
 
@@ -252,7 +275,7 @@ class CrushableFoam:
     density: float | None = None
 
     def __post_init__(self) -> None:
-        _measure(self.strain_measure)
+        measure_code(self.strain_measure)
         check_density(self.density)
         if not (0.0 < self.k < 3.0):
             raise InputError("material.k", f"must lie in (0, 3), got {self.k!r}")
@@ -276,7 +299,7 @@ class CrushableFoam:
     @cached_property
     def hardening(self) -> HardeningTable:
         """Convert the nominal curve to ``pc(evp)`` (see ``docs/theory.md``)."""
-        m = _measure(self.strain_measure)
+        m = measure_code(self.strain_measure)
         e = np.asarray(self.curve.strain, dtype=float)
         s = np.asarray(self.curve.stress, dtype=float)
         lam = 1.0 - e
@@ -330,7 +353,7 @@ class CrushableFoam:
         props = np.zeros(N_PROPS)  # PROP_VISC: 0, set per increment by evaluate()
         props[PROP_ALPHA], props[PROP_PT] = h.alpha, h.pt
         return KernelData(
-            self.elasticity.stiffness(), _measure(self.strain_measure), True,
+            self.elasticity.stiffness(), measure_code(self.strain_measure), True,
             props, h.evp, h.pc, h.slope,
         )
 

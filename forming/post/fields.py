@@ -73,3 +73,40 @@ def plastic_field(body: SolidBody) -> PlasticStrainField:
         field = _FIELDS[id(body)] = PlasticStrainField(body)
     field.update()
     return field
+
+
+class PointIntegral:
+    """Integral over a body's reference volume of values given at its quadrature points.
+
+    Args:
+        body: A solid body (its :attr:`~SolidBody.point_cells` order the values).
+    """
+
+    def __init__(self, body: SolidBody):
+        import basix.ufl
+
+        self.body = body
+        Q = fem.functionspace(body.mesh, basix.ufl.quadrature_element(
+            body.mesh.basix_cell(), value_shape=(), degree=body.quadrature_degree))
+        self.values = fem.Function(Q)
+        self._dofs = Q.dofmap.list[body.point_cells].ravel()
+        self._form = fem.form(self.values * body.own_dx)
+
+    def __call__(self, values) -> float:
+        """The integral of ``values`` (one per owned point), summed over all ranks."""
+        self.values.x.array[self._dofs] = values
+        return assemble_scalar(self._form)
+
+
+_INTEGRALS: dict[int, PointIntegral] = {}
+
+
+def fracture_energy(body: SolidBody) -> float:
+    """Energy the body's fracture has dissipated [N mm] (0 unless it fractures; collective)."""
+    dissipated = body.dissipated_density()
+    if dissipated is None:
+        return 0.0
+    integral = _INTEGRALS.get(id(body))
+    if integral is None or integral.body is not body:
+        integral = _INTEGRALS[id(body)] = PointIntegral(body)
+    return integral(dissipated)

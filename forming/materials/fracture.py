@@ -1,0 +1,102 @@
+"""An elastic solid that fractures: isotropic damage regularised by the crack band.
+
+The cell walls of the paper's honeycomb (Table 1: fracture strain 0.067). The law and
+its regularisation are in :mod:`forming.materials.kernels.damage` and
+``docs/theory.md``; the mesh-independence test is in ``tests/test_fracture.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from forming.errors import InputError
+from forming.materials.elasticity import IsotropicElasticity
+from forming.materials.kernels.damage import (
+    DAMAGE_DMAX,
+    DAMAGE_EPS_F,
+    DAMAGE_GF,
+    DAMAGE_SIGMA_F,
+    N_DAMAGE_PROPS,
+)
+from forming.materials.solids import KernelData, StrainMeasure, check_density, measure_code
+
+
+@dataclass(frozen=True)
+class FracturingSolid:
+    """Elastic solid that fractures: isotropic damage with a crack-band regularisation.
+
+    Its stiffness degrades once its largest principal strain passes ``fracture_strain``,
+    dissipating ``fracture_energy`` per unit crack area whatever the element size.
+
+    Attributes:
+        elasticity: Isotropic elasticity.
+        fracture_strain: Largest principal strain at the onset of damage (> 0).
+        fracture_energy: G_f [N/mm = kJ/m^2] per unit crack area (> 0).
+        max_damage: Damage at which softening stops, in (0, 1): the residual
+            stiffness ``1 - max_damage`` keeps an implicit system regular.
+        strain_measure: ``"hencky"`` (default), ``"biot"`` or ``"biot-hencky"``.
+        density: Mass density [tonne/mm^3] (explicit dynamics only; None: not given).
+    """
+
+    elasticity: IsotropicElasticity
+    fracture_strain: float = 0.067
+    fracture_energy: float = 7.4
+    max_damage: float = 0.99
+    strain_measure: StrainMeasure = "hencky"
+    density: float | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.elasticity, IsotropicElasticity):
+            raise InputError("material.elasticity", "a fracturing solid is isotropic: give "
+                             f"IsotropicElasticity, got {type(self.elasticity).__name__}")
+        for name in ("fracture_strain", "fracture_energy"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise InputError(f"material.{name}", f"must be a positive number, got {v!r}")
+        if not (0.0 < self.max_damage < 1.0):
+            raise InputError("material.max_damage",
+                             f"must lie in (0, 1), got {self.max_damage!r}")
+        measure_code(self.strain_measure)
+        check_density(self.density)
+
+    @property
+    def plastic(self) -> bool:
+        """The solid carries history (its damage), like a plastic one."""
+        return True
+
+    @property
+    def damaging(self) -> bool:
+        """Whether the history is damage (not plastic strain)."""
+        return True
+
+    @property
+    def fracture_stress(self) -> float:
+        """Uniaxial stress at the onset of damage [MPa]."""
+        return self.elasticity.E * self.fracture_strain
+
+    @property
+    def widest_band(self) -> float:
+        """Widest crack band [mm] that softens without snap-back: ``2 G_f/(sigma_f eps_f)``.
+
+        Wider elements get the steepest softening and dissipate more than ``G_f``.
+        """
+        return 2.0 * self.fracture_energy / (self.fracture_stress * self.fracture_strain)
+
+    @cached_property
+    def _data(self) -> KernelData:
+        props = np.zeros(N_DAMAGE_PROPS)
+        props[DAMAGE_EPS_F] = self.fracture_strain
+        props[DAMAGE_SIGMA_F] = self.fracture_stress
+        props[DAMAGE_GF] = self.fracture_energy
+        props[DAMAGE_DMAX] = self.max_damage
+        empty = np.zeros(1)
+        return KernelData(self.elasticity.stiffness(), measure_code(self.strain_measure), True,
+                          props, empty, empty, empty, damage=True)
+
+    def kernel_data(self) -> KernelData:
+        """The arrays the point kernel needs."""
+        return self._data
