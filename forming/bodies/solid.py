@@ -154,7 +154,9 @@ class SolidBody(BodyBase):
             return
         t0 = time.perf_counter()
         cj = self._C_expr.eval(self.mesh, self.point_cells).reshape(-1, 10)
-        n_inverted = int(np.count_nonzero(cj[:, 9] <= 0.0))
+        inverted = cj[:, 9] <= 0.0
+        inverted &= self.active_points()  # an eroded point's shape is no longer checked
+        n_inverted = int(np.count_nonzero(inverted))
         if n_inverted:  # C alone cannot tell an inverted element
             self._evaluated_at = None
             raise KernelFailure(f"{n_inverted} quadrature points: inverted elements (det F <= 0)")
@@ -248,9 +250,13 @@ class SolidBody(BodyBase):
             f.x.scatter_forward()
 
     def min_det_F(self) -> float:
-        """Smallest Jacobian determinant over the quadrature points of all ranks."""
+        """Smallest Jacobian determinant over the quadrature points of all ranks.
+
+        Eroded points (a fracturing material's) are left out.
+        """
         cj = self._C_expr.eval(self.mesh, self.point_cells).reshape(-1, 10)
-        local = float(cj[:, 9].min()) if cj.size else np.inf
+        det = cj[:, 9][self.active_points()] if cj.size else cj[:, 9]
+        local = float(det.min()) if det.size else np.inf
         return self.mesh.comm.allreduce(local, op=MPI.MIN)
 
     def cell_average(self, values: np.ndarray) -> np.ndarray:
@@ -288,6 +294,12 @@ class SolidBody(BodyBase):
         return [f"body {self.name}: {wide} damaged points have crack bands wider than "
                 f"{widest:.3g} mm (2 G_f / (sigma_f eps_f)): they soften as steeply as the law "
                 "allows and dissipate more than the fracture energy; refine the mesh"]
+
+    def active_points(self) -> np.ndarray:
+        """True at the points that still carry stress (all but a fracturing body's eroded)."""
+        if not self.damaging:
+            return np.ones(self.n_points, dtype=bool)
+        return self.plastic.ep[:, 4] == 0.0
 
     def damage(self) -> np.ndarray | None:
         """Converged damage per quadrature point (None unless the material fractures)."""

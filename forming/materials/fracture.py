@@ -18,6 +18,7 @@ from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.kernels.damage import (
     DAMAGE_DMAX,
     DAMAGE_EPS_F,
+    DAMAGE_ERODE,
     DAMAGE_GF,
     DAMAGE_SIGMA_F,
     N_DAMAGE_PROPS,
@@ -29,7 +30,7 @@ from forming.materials.solids import KernelData, StrainMeasure, check_density, m
 class FracturingSolid:
     """Elastic solid that fractures: isotropic damage with a crack-band regularisation.
 
-    Its stiffness degrades once its largest principal strain passes ``fracture_strain``,
+    Its stiffness degrades once its largest principal stress passes E ``fracture_strain``,
     dissipating ``fracture_energy`` per unit crack area whatever the element size.
 
     Attributes:
@@ -38,6 +39,9 @@ class FracturingSolid:
         fracture_energy: G_f [N/mm = kJ/m^2] per unit crack area (> 0).
         max_damage: Damage at which softening stops, in (0, 1): the residual
             stiffness ``1 - max_damage`` keeps an implicit system regular.
+        erosion: Erode a point once its band is spent (no stress, no shape check),
+            as an explicit code deletes failed elements. An eroded element's inner
+            nodes are then held only by a scene's stabilisation.
         strain_measure: ``"hencky"`` (default), ``"biot"`` or ``"biot-hencky"``.
         density: Mass density [tonne/mm^3] (explicit dynamics only; None: not given).
     """
@@ -46,6 +50,7 @@ class FracturingSolid:
     fracture_strain: float = 0.067
     fracture_energy: float = 7.4
     max_damage: float = 0.99
+    erosion: bool = False
     strain_measure: StrainMeasure = "hencky"
     density: float | None = None
 
@@ -93,6 +98,7 @@ class FracturingSolid:
         props[DAMAGE_SIGMA_F] = self.fracture_stress
         props[DAMAGE_GF] = self.fracture_energy
         props[DAMAGE_DMAX] = self.max_damage
+        props[DAMAGE_ERODE] = 1.0 if self.erosion else 0.0
         empty = np.zeros(1)
         return KernelData(self.elasticity.stiffness(), measure_code(self.strain_measure), True,
                           props, empty, empty, empty, damage=True)

@@ -18,14 +18,15 @@ def wall_strain_extremes(body) -> tuple[float, float]:
 
     Evaluated at the quadrature points of the owned cells: a tensile value above the
     wall material's fracture strain (0.067 for the paper's cardboard) is where a wall
-    would have torn.
+    would have torn (elastic walls); fracturing walls leave out their eroded points.
     """
     F = body.deformation_gradient()
     E = 0.5 * (F.T * F - ufl.Identity(3))
     points = body.QS.element.interpolation_points
     values = fem.Expression(ufl.as_vector([E[i, j] for i in range(3) for j in range(3)]),
                             points).eval(body.mesh, body.point_cells)
-    eig = np.linalg.eigvalsh(values.reshape(-1, 3, 3)) if values.size else np.zeros((1, 3))
+    values = values.reshape(-1, 3, 3)[body.active_points()]
+    eig = np.linalg.eigvalsh(values) if values.size else np.zeros((1, 3))
     comm = body.mesh.comm
     return (comm.allreduce(float(eig[:, 2].max()), op=MPI.MAX),
             comm.allreduce(float(eig[:, 0].min()), op=MPI.MIN))
@@ -33,6 +34,9 @@ def wall_strain_extremes(body) -> tuple[float, float]:
 
 def folded_walls_picture(model, out: Path, title: str, name: str = "folded_walls.png") -> list:
     """3D view of the deformed walls coloured by their sideways (in-plane) displacement.
+
+    Walls that fracture get a second view, ``damaged_walls.png``, coloured by the
+    largest damage in each cell.
 
     Collective: written on rank 0 and returned there (empty elsewhere).
     """
@@ -49,7 +53,16 @@ def folded_walls_picture(model, out: Path, title: str, name: str = "folded_walls
         centres = msh.geometry.x[geo].mean(axis=1)
     u = body.u.eval(centres, np.arange(n, dtype=np.int32)) if n else np.zeros((0, 3))
     label = "sideways displacement [mm]"
-    grid = deformed_grid(body, {label: np.linalg.norm(u[:, :2], axis=1)})
+    fields = {label: np.linalg.norm(u[:, :2], axis=1)}
+    damage = body.damage()
+    if damage is not None:  # the worst point of each cell
+        fields["damage"] = damage.reshape(n, -1).max(axis=1) if n else np.zeros(0)
+    grid = deformed_grid(body, fields)
     if model.comm.rank != 0:
         return []
-    return [render_3d(Path(out) / name, grid, label, [], (0, 1, 0, 1, 0, 1), 1.0, title=title)]
+    out = Path(out)
+    paths = [render_3d(out / name, grid, label, [], (0, 1, 0, 1, 0, 1), 1.0, title=title)]
+    if damage is not None:
+        paths.append(render_3d(out / "damaged_walls.png", grid, "damage", [],
+                               (0, 1, 0, 1, 0, 1), 1.0, title=f"{title}: damage"))
+    return paths

@@ -1,12 +1,17 @@
-"""Isotropic damage of an elastic solid, regularised by the crack band (numba driver).
+"""Damage of an isotropic elastic solid, regularised by the crack band (numba driver).
 
-The stress is ``S = (1 - d) S0(C)`` with ``S0`` the elastic stress of
-:mod:`.elastic`. Damage grows with the largest principal strain reached,
-``kappa = max over the history of f(c_max)`` (a Rankine-type, tension-only
-criterion): zero up to the fracture strain ``eps_f``, then linear softening of the
-equivalent stress ``E kappa (1 - d)`` down to zero at ``eps_u``, scaled by ``d_max``
-(the residual stiffness ``1 - d_max`` keeps the implicit system regular, where an
-explicit code would delete the element).
+The stress is the Hencky-elastic one with damage on its tensile part only (the spectral
+split of Miehe, Welschinger and Hofacker 2010, :func:`_split`): a cracked wall still
+carries compression, so its elements do not collapse when a fold closes. Damage grows
+with ``kappa``, the largest value reached of the largest principal stress of the
+undamaged solid over E (a Rankine criterion: ``kappa`` is the strain in uniaxial
+tension, and a wall's Poisson expansion under compression does not count): zero up to
+the fracture strain ``eps_f``, then linear softening of the equivalent stress ``E kappa
+(1 - d)`` down to zero at ``eps_u``, scaled by ``d_max`` (the residual stiffness ``1 -
+d_max`` keeps the implicit system regular). Optionally a point whose band is spent
+(``kappa >= eps_u``) is eroded from the next step on, as an explicit code deletes a
+failed element: it carries no stress, and its shape is no longer checked (a spent point
+stretched several times its length would otherwise invert its element and stop the run).
 
 Crack band (Bazant and Oh 1983): ``eps_u = 2 G_f / (sigma_f h)`` so that a band of
 width ``h`` dissipates the fracture energy ``G_f`` per unit crack area whatever the
@@ -18,7 +23,8 @@ the rows of the inverse Jacobian of the cell (reference cell ``[0, 1]^3``),
 History per point (the body's state arrays): ``kappa`` in the scalar slot; in the
 6-vector the damage ``d``, the band ``h`` (0 before onset), the energy dissipated per
 unit reference volume ``int Y dd`` (trapezoidal rule over the steps) and the energy
-release rate ``Y = psi0`` of the last state (the undamaged strain energy density).
+release rate ``Y = psi+`` of the last state (the undamaged tensile energy density), and
+1 once the point is eroded.
 """
 
 from __future__ import annotations
@@ -28,15 +34,15 @@ import numba
 from .closed import elastic_tangent
 from .common import STATUS_INVERTED, STATUS_OK, _inner
 from .drivers import _batch_eigen, _new_tangent_work, _new_work
-from .elastic import _elastic_state
-from .mandel import SQRT2, _mul6, _mv6
-from .strain import strain_f, strain_theta
+from .mandel import _ZERO6, SQRT2, _axpy6, _mandel_rotation_into, _mul6, _mv6
+from .strain import _kinematics, strain_theta
 
 DAMAGE_EPS_F = 0  # props: fracture strain (onset of damage)
 DAMAGE_SIGMA_F = 1  # props: equivalent stress at onset, E eps_f [MPa]
 DAMAGE_GF = 2  # props: fracture energy G_f [N/mm]
 DAMAGE_DMAX = 3  # props: largest damage
-N_DAMAGE_PROPS = 4
+DAMAGE_ERODE = 4  # props: 1 erodes a point whose band is spent, 0 keeps it
+N_DAMAGE_PROPS = 5
 
 
 @_inner
@@ -84,59 +90,123 @@ def _chord(ginv, cell, q, a):
 
 
 @_inner
+def _split(e, lam, mu, d):
+    """Stress of the spectral split and its eigenframe stiffness (Miehe et al. 2010).
+
+    ``T_a = (1 - d)(lam <tr e>+ + 2 mu <e_a>+) + lam <tr e>- + 2 mu <e_a>-``: damage
+    acts on the tensile part only, so a cracked wall still carries compression (and its
+    elements do not collapse under it).
+
+    Returns:
+        (T, T+ (the part damage acts on), Y = psi+, the stiffness's normal weights of
+        the trace and of each principal strain).
+    """
+    tr = e[0] + e[1] + e[2]
+    w_tr = 1.0 - d if tr > 0.0 else 1.0
+    wa = (1.0 - d if e[0] > 0.0 else 1.0, 1.0 - d if e[1] > 0.0 else 1.0,
+          1.0 - d if e[2] > 0.0 else 1.0)
+    trp = max(tr, 0.0)
+    ep0, ep1, ep2 = max(e[0], 0.0), max(e[1], 0.0), max(e[2], 0.0)
+    tp = (lam * trp + 2.0 * mu * ep0, lam * trp + 2.0 * mu * ep1, lam * trp + 2.0 * mu * ep2)
+    t = (lam * w_tr * tr + 2.0 * mu * wa[0] * e[0], lam * w_tr * tr + 2.0 * mu * wa[1] * e[1],
+         lam * w_tr * tr + 2.0 * mu * wa[2] * e[2])
+    y = 0.5 * lam * trp * trp + mu * (ep0 * ep0 + ep1 * ep1 + ep2 * ep2)
+    return t, tp, y, w_tr, wa
+
+
+@_inner
+def _shear(ta, tb, ea, eb, wa, wb, mu):
+    """Eigenframe shear stiffness of pair (a, b): ``(T_a - T_b) / (e_a - e_b)``."""
+    if abs(ea - eb) > 1e-10:
+        return (ta - tb) / (ea - eb)
+    return mu * (wa + wb)
+
+
+@_inner
 def _damage_points(cmats, hist_n, kappa_n, cel, measure, props, ginv, per_cell, s_out,
                    d_out, hist_out, kappa_out, want_tangent, work, twork):
     """Body of :func:`damage_points`, with its scratch arrays."""
-    cs, ms, qs, active, turn, rcs, rot, cr, c_eig, _lu, _s, _ok = work
+    cs, ms, qs, active, turn, rcs, rot, _cr, c_eig, _lu, _s, _ok = work
     geo, mt, tmp, _sys = twork
     eps_f, d_max = props[DAMAGE_EPS_F], props[DAMAGE_DMAX]
+    erode = props[DAMAGE_ERODE] > 0.0
+    lam, mu = cel[0, 1], 0.5 * cel[3, 3]  # isotropic
+    young = mu * (3.0 * lam + 2.0 * mu) / (lam + mu)
     nbad = 0
     for ip in range(cmats.shape[0]):
         k, c = _batch_eigen(cmats, ip, cs, ms, qs, active, turn, rcs)
-        ok, s_fac, t = _elastic_state(c, qs[k], cel, measure, rot, cr, c_eig, 6)
+        if hist_n[ip, 4] > 0.0:  # eroded: carries nothing, whatever its shape
+            for i in range(6):
+                s_out[ip, i] = 0.0
+                hist_out[ip, i] = hist_n[ip, i]
+            kappa_out[ip] = kappa_n[ip]
+            if want_tangent:
+                for j in range(36):
+                    d_out[ip, j] = 0.0
+            continue
+        ok, e, s_fac, _kf = _kinematics(c, measure, False)
         if not ok:
             nbad += 1
             continue
-        s0 = _mv6(rot, _mul6(s_fac, t))
+        q = qs[k]
+        # Rankine criterion: the largest principal stress of the undamaged solid over E
+        tr = e[0] + e[1] + e[2]
         a = 0
-        if c[1] > c[a]:
+        if e[1] > e[a]:
             a = 1
-        if c[2] > c[a]:
+        if e[2] > e[a]:
             a = 2
-        e1 = strain_f(c[a], measure)
+        e1 = (lam * tr + 2.0 * mu * e[a]) / young
         h = hist_n[ip, 1]
         if h == 0.0 and e1 > eps_f:  # damage starts now: fix the band's width
-            h = _chord(ginv, ip // per_cell, qs[k], a)
+            h = _chord(ginv, ip // per_cell, q, a)
         kappa = max(kappa_n[ip], e1)
-        d, slope = 0.0, 0.0
+        d, slope, eps_u = 0.0, 0.0, 0.0
         if h > 0.0:
-            d, slope = softening_law(kappa, eps_f, band_ultimate_strain(h, props), d_max)
-        # energy release rate Y = psi0 (the undamaged energy; the strain is diagonal in
-        # the eigenframe); dissipation by the trapezoidal rule in d
-        y = 0.5 * (t[0] * strain_f(c[0], measure) + t[1] * strain_f(c[1], measure)
-                   + t[2] * strain_f(c[2], measure))
+            eps_u = band_ultimate_strain(h, props)
+            d, slope = softening_law(kappa, eps_f, eps_u, d_max)
+        t3, tp3, y, w_tr, wa = _split(e, lam, mu, d)
+        t = (t3[0], t3[1], t3[2], 0.0, 0.0, 0.0)
+        _mandel_rotation_into(q, rot)
+        s = _mv6(rot, _mul6(s_fac, t))
         for i in range(6):
-            s_out[ip, i] = (1.0 - d) * s0[i]
+            s_out[ip, i] = s[i]
             hist_out[ip, i] = 0.0
         hist_out[ip, 0] = d
         hist_out[ip, 1] = h
+        # dissipation: Y dd by the trapezoidal rule over the steps
         hist_out[ip, 2] = hist_n[ip, 2] + 0.5 * (hist_n[ip, 3] + y) * (d - hist_n[ip, 0])
         hist_out[ip, 3] = y
+        hist_out[ip, 4] = 1.0 if (erode and h > 0.0 and kappa >= eps_u) else 0.0
         kappa_out[ip] = kappa
         if not want_tangent:
             continue
+        for i in range(6):
+            for j in range(6):
+                c_eig[i, j] = 0.0
+        for i in range(3):
+            for j in range(3):
+                c_eig[i, j] = lam * w_tr
+            c_eig[i, i] += 2.0 * mu * wa[i]
+        # Mandel shear components (1, 2), (0, 2), (0, 1)
+        c_eig[3, 3] = _shear(t3[1], t3[2], e[1], e[2], wa[1], wa[2], mu)
+        c_eig[4, 4] = _shear(t3[0], t3[2], e[0], e[2], wa[0], wa[2], mu)
+        c_eig[5, 5] = _shear(t3[0], t3[1], e[0], e[1], wa[0], wa[1], mu)
         elastic_tangent(d_out, ip, c, t, s_fac, c_eig, rot, measure, geo, mt, tmp)
-        for j in range(36):
-            d_out[ip, j] *= 1.0 - d
         if slope > 0.0 and e1 > kappa_n[ip]:  # loading on the softening branch
-            q = qs[k]
-            w = 2.0 * strain_theta(c[a], c[a], measure) * slope
-            g = (q[0, a] * q[0, a], q[1, a] * q[1, a], q[2, a] * q[2, a],
-                 SQRT2 * q[1, a] * q[2, a], SQRT2 * q[0, a] * q[2, a],
-                 SQRT2 * q[0, a] * q[1, a])
+            sp = _mv6(rot, _mul6(s_fac, (tp3[0], tp3[1], tp3[2], 0.0, 0.0, 0.0)))
+            # d kappa / dE_GL = sum_b (lam + 2 mu delta_ab) / E 2 theta_b N_b (x) N_b
+            g = _ZERO6
+            for b in range(3):
+                wb = ((lam + (2.0 * mu if b == a else 0.0)) / young
+                      * 2.0 * strain_theta(c[b], c[b], measure) * slope)
+                nb = (q[0, b] * q[0, b], q[1, b] * q[1, b], q[2, b] * q[2, b],
+                      SQRT2 * q[1, b] * q[2, b], SQRT2 * q[0, b] * q[2, b],
+                      SQRT2 * q[0, b] * q[1, b])
+                g = _axpy6(g, wb, nb)
             for i in range(6):
                 for j in range(6):
-                    d_out[ip, 6 * i + j] -= w * s0[i] * g[j]
+                    d_out[ip, 6 * i + j] -= sp[i] * g[j]
     return nbad, STATUS_INVERTED if nbad else STATUS_OK
 
 
@@ -147,7 +217,7 @@ def damage_points(cmats, hist_n, kappa_n, cel, measure, props, ginv, per_cell, s
 
     Args:
         cmats: (n, 9) right Cauchy-Green tensors, row-major.
-        hist_n: (n, 6) converged history ``[d, h, dissipated, Y, 0, 0]``.
+        hist_n: (n, 6) converged history ``[d, h, dissipated, Y, eroded, 0]``.
         kappa_n: (n,) converged largest equivalent strain.
         cel: (6, 6) Mandel elastic stiffness.
         measure: Strain measure (0 Hencky, 1 Biot, 2 Biot-Hencky).
