@@ -41,14 +41,19 @@ class Params:
     strain: float = 0.9  # nominal strain reached (0 < strain < 1)
     elasticity: Literal["transverse", "isotropic"] = "transverse"  # core elasticity
     curve: str | None = None  # C365 curve CSV; none: shipped estimate
+    modulus: float | None = None  # through-thickness modulus [MPa]; none: shipped (15)
+    elastic_band: float = 0.05  # curve points this close to the elastic line are on it
     max_step: float = 0.05  # largest load step (fraction of the stroke)
     linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
     extrapolate: bool = False  # allow strains past the curve's last point
 
 
 def build(p: Params) -> Job:
-    require(p, positive=("width", "thickness"), fraction=("strain",))
-    material = honeycomb_core(p.elasticity, curve=p.curve)
+    require(p, positive=("width", "thickness", "modulus"), fraction=("strain",))
+    modulus = {} if p.modulus is None else {
+        "E_through" if p.elasticity == "transverse" else "E": p.modulus}
+    material = honeycomb_core(p.elasticity, curve=p.curve, elastic_band=p.elastic_band,
+                              **modulus)
     if p.strain > material.curve.strain[-1] and not p.extrapolate:
         raise InputError("--set strain", f"{p.strain:g} passes the last point of the curve "
                          f"({material.curve.strain[-1]:g}, {material.curve.source}); give a "

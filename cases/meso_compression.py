@@ -8,10 +8,11 @@ plate theory) of the paper's cardboard (Table 1: E 0.41 GPa, nu 0.21). The cell
 dimensions are estimates (docs/materials.md): the paper shows them only in its Fig. 3.
 A seeded smooth imperfection (``imperfection`` mm) lets the walls choose a buckling path.
 
-What it gives: the nominal stress-strain curve, its initial modulus against Gibson and
-Ashby's E_s x relative density, the buckling peak against the linear buckling strain of
-the patch itself (``--set buckling=true``) and against plate buckling of the walls, and
-a picture of the buckled walls.
+What it gives: the nominal stress-strain curve (also as ``c365_curve.csv``, the macro
+core's format; ``forming calibrate meso_compression`` makes it the macro curve), its
+initial modulus against Gibson and Ashby's E_s x relative density, the buckling peak
+against the linear buckling strain of the patch itself (``--set buckling=true``) and
+against plate buckling of the walls, and a picture of the buckled walls.
 
 The bottom platen is bonded; the top one is bonded too (default) or, with
 ``platen=contact``, a rigid tool that touches the wall edges with friction (the paper's
@@ -24,11 +25,12 @@ give) along every wall's top edge. Either is a second body bonded to the walls, 
 the top platen holds or touches as it does the walls.
 
 The walls fracture (``fracture=true``, the default): damage on the largest principal
-strain past Table 1's 0.067, its tensile part only, regularised by the crack band with an
-estimated fracture energy ``fracture_energy`` (docs/materials.md); with the
-stabilisation on, a point whose band is spent is eroded, as the paper's explicit code
-deletes failed elements. ``fracture=false`` keeps the walls elastic (``max_wall_strain``
-then says where they would have torn).
+strain past Table 1's 0.067, its tensile part only, regularised by the crack band with
+an estimated fracture energy ``fracture_energy`` (docs/materials.md); a point whose band
+is spent is eroded (``erosion``), as the paper's explicit code deletes failed elements
+(an implicit run then needs the stabilisation, which holds the eroded elements' nodes).
+``fracture=false`` keeps the walls elastic (``max_wall_strain`` then says where they
+would have torn).
 
 Limits of this meso model (issue 20, in progress): walls do not touch each other (no
 self-contact: the run is only meaningful before folds meet, well short of
@@ -51,9 +53,11 @@ from typing import Literal
 
 import numpy as np
 
+from forming.calibrate import CURVE_FILE
 from forming.case import main, require
 from forming.contact.shapes import Plane
 from forming.job import Job, Response
+from forming.materials.curves import CompressionCurve
 from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.fracture import FracturingSolid
 from forming.materials.library import honeycomb_core
@@ -77,6 +81,8 @@ from forming.solver.stepping import StepControl
 
 INFILL_MODULUS, INFILL_POISSON = 0.3, 0.0  # the paper's dummy infill, Table 3 [MPa]
 FLANGE_MODULUS, FLANGE_POISSON = 4.0, 0.21  # the paper's dummy flanges, Table 3 [MPa]
+WALL_DENSITY = 7.4e-10  # cardboard walls and dummy flanges, Tables 1 and 3 [t/mm^3]
+INFILL_DENSITY = 5.0e-11  # the dummy infill, Table 3 [t/mm^3]
 
 
 @dataclass(frozen=True)
@@ -96,6 +102,7 @@ class Params:
     fracture: bool = True  # walls fracture at Table 1's strain (False: elastic walls)
     fracture_strain: float = 0.067  # wall fracture strain (Table 1)
     fracture_energy: float = 7.4  # wall fracture energy G_f [N/mm] (estimate, materials.md)
+    erosion: bool = True  # erode spent points (implicit: needs the stabilisation)
     strain: float = 0.06  # nominal strain reached (0 < strain < 1)
     imperfection: float = 0.05  # largest imperfection move [mm]
     seed: int = 0  # seed of the imperfection
@@ -128,8 +135,8 @@ def build(p: Params) -> Job:
     mesh = honeycomb_mesh(patch)
     cardboard = IsotropicElasticity(p.wall_modulus, p.wall_poisson)
     material = (FracturingSolid(cardboard, p.fracture_strain, p.fracture_energy,
-                                erosion=p.stabilisation > 0)
-                if p.fracture else ElasticSolid(cardboard))
+                                erosion=p.erosion, density=WALL_DENSITY)
+                if p.fracture else ElasticSolid(cardboard, density=WALL_DENSITY))
     stroke = p.strain * p.height
     split = p.variant != "original"  # the walls are one region of several
     walls = Body("walls", material, region="walls" if split else None, degree=2)
@@ -138,12 +145,14 @@ def build(p: Params) -> Job:
     parts = [("walls", "bottom", "top", "platen")]
     interfaces = ()
     if p.variant == "infill":  # Table 3's dummy infill, bonded to the walls
-        infill = ElasticSolid(IsotropicElasticity(INFILL_MODULUS, INFILL_POISSON))
+        infill = ElasticSolid(IsotropicElasticity(INFILL_MODULUS, INFILL_POISSON),
+                              density=INFILL_DENSITY)
         bodies.append(Body("infill", infill, region="infill", degree=1))
         parts.append(("infill", "infill_bottom", "infill_top", "platen_infill"))
         interfaces = (Interface("wall_infill", "walls", "infill", kind="bonded"),)
     elif p.variant == "flange":  # Table 3's dummy flanges on the walls' top edges
-        flange = ElasticSolid(IsotropicElasticity(FLANGE_MODULUS, FLANGE_POISSON))
+        flange = ElasticSolid(IsotropicElasticity(FLANGE_MODULUS, FLANGE_POISSON),
+                              density=WALL_DENSITY)
         bodies.append(Body("flange", flange, region="flange", degree=2))
         parts.append(("flange", None, "flange_top", "platen_flange"))
         interfaces = (Interface("wall_flange", "walls", "flange", kind="bonded"),)
@@ -217,6 +226,10 @@ def build(p: Params) -> Job:
 
     def plots(rec, out: Path) -> list[Path]:
         e, s = nominal(rec)
+        if len(e) >= 3:  # the curve in the macro core's format (forming calibrate)
+            CompressionCurve(tuple(e), tuple(np.maximum(s, 0.0)), "meso_compression").to_csv(
+                out / CURVE_FILE, f"meso_compression {p.cells[0]} x {p.cells[1]} cells, "
+                f"nominal strain and stress, every converged step")
         grid = np.linspace(0.0, p.strain, 100)
         macro = honeycomb_core("isotropic").curve
         walls_are = "fracturing" if p.fracture else "elastic"

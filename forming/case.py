@@ -68,11 +68,13 @@ def require(params, positive: tuple[str, ...] = (), nonnegative: tuple[str, ...]
         nonnegative: Names that must be >= 0 (clearances, friction).
         fraction: Names that must lie strictly between 0 and 1 (a nominal strain).
 
+    An optional parameter left at None passes.
+
     Raises:
         InputError: The first offending parameter.
     """
     for name in positive:
-        if not getattr(params, name) > 0:
+        if getattr(params, name) is not None and not getattr(params, name) > 0:
             raise InputError(f"--set {name}", f"must be > 0, got {getattr(params, name)}")
     for name in nonnegative:
         if not getattr(params, name) >= 0:

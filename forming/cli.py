@@ -131,6 +131,30 @@ def _drape(args: argparse.Namespace) -> int:
     return 0
 
 
+def _calibrate(args: argparse.Namespace) -> int:
+    from mpi4py import MPI
+
+    from forming.calibrate import calibrate
+    from forming.case import guarded
+    from forming.log import setup
+
+    setup(quiet=args.quiet)
+    comm = MPI.COMM_WORLD
+    out = args.out or Path("results") / f"{args.case}_calibration"
+    r, code = guarded(comm, lambda: calibrate(args.case, out, args.assignments))
+    if code is not None:
+        return code
+    if comm.rank == 0:
+        print(f"{args.case}: C365 curve {r['curve']} ({r['points']} points to strain "
+              f"{r['strain_end']:.4g}; modulus {r['modulus_MPa']:.4g} MPa)")
+        if r["cut"]:
+            print(f"  ends early: {r['cut']}")
+        print(f"  macro check: {r['check_status']}, relative RMS error {r['check_rmse_rel']}")
+        print(f"  use it: {r['use']}")
+        print(f"outputs in {Path(out).resolve()}")
+    return 0 if r["check_status"] == "completed" else 1
+
+
 def _study(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
@@ -253,11 +277,23 @@ def main(argv: list[str] | None = None) -> None:
     _add_drape_arguments(drape)
     _add_study_arguments(sub.add_parser(
         "study", help="run a case over combinations of parameters (study.csv, study.md)"))
+    cal = sub.add_parser("calibrate", help="the macro core's C365 curve from a meso case "
+                                           "(c365_meso.csv, checked by core_compression)")
+    cal.add_argument("case", help="meso case (meso_compression)")
+    cal.add_argument("--out", type=Path, default=None,
+                     help="output folder (default results/<case>_calibration)")
+    cal.add_argument("--set", dest="assignments", action="append", default=[],
+                     metavar="KEY=VALUE", help="set a parameter of the meso case (repeatable)")
+    cal.add_argument("--quiet", action="store_true", help="warnings and errors only")
     args, extra = parser.parse_known_args(argv)
     if args.command == "study":
         if extra:
             parser.error(f"unrecognized arguments: {' '.join(extra)}")
         raise SystemExit(_study(args))
+    if args.command == "calibrate":
+        if extra:
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        raise SystemExit(_calibrate(args))
     if args.command == "drape":
         if extra:
             parser.error(f"unrecognized arguments: {' '.join(extra)}")

@@ -90,6 +90,16 @@ class CompressionCurve:
                 raise InputError("curve.path", f"{p}: row {n} is not numeric: {row!r}") from exc
         return cls(tuple(strain), tuple(stress), source=str(p))
 
+    def to_csv(self, path: str | Path, comment: str = "") -> Path:
+        """Write the curve in the format :meth:`from_csv` reads (``comment``: ``#`` lines)."""
+        p = Path(path)
+        lines = [f"# {line}" for line in comment.splitlines()]
+        lines.append("nominal_strain,nominal_stress_MPa")
+        lines += [f"{float(e)!r},{float(s)!r}" for e, s in zip(self.strain, self.stress,
+                                                                strict=True)]
+        p.write_text("\n".join(lines) + "\n")
+        return p
+
     def interpolate(self, e: np.ndarray) -> np.ndarray:
         """Piecewise-linear nominal stress at nominal strains ``e``."""
         return np.interp(e, self.strain, self.stress)

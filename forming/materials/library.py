@@ -50,7 +50,7 @@ def honeycomb_core(
     el = _values(data[elasticity])
     foam = _values(data["foam"])
     measure = el.pop("strain_measure")
-    known = set(el) | {"k", "kt", "strain_measure", "viscosity", "density"}
+    known = set(el) | {"k", "kt", "strain_measure", "viscosity", "density", "elastic_band"}
     density = data["mass"]["density"]["value"]
     for key, val in overrides.items():
         if key not in known:
@@ -70,4 +70,4 @@ def honeycomb_core(
     path = Path(curve) if curve is not None else Path(str(DATA / foam["curve"]))
     return CrushableFoam(law, CompressionCurve.from_csv(path), k=foam["k"], kt=foam["kt"],
                          strain_measure=measure, viscosity=foam.get("viscosity", 0.0),
-                         density=density)
+                         density=density, elastic_band=foam.get("elastic_band", 0.05))

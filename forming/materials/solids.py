@@ -264,6 +264,9 @@ class CrushableFoam:
             length), which keeps Newton on a unique path through softening; 0 (default)
             is rate-independent, as the paper's core.
         density: Mass density [tonne/mm^3] (explicit dynamics only; None: not given).
+        elastic_band: A curve point whose plastic strain is below this fraction of its
+            strain is on the elastic line (measured curves scatter about it); a smooth
+            curve computed from a model (``forming calibrate``) can use a narrower band.
     """
 
     elasticity: Elasticity
@@ -273,10 +276,14 @@ class CrushableFoam:
     strain_measure: StrainMeasure = "hencky"
     viscosity: float = 0.0
     density: float | None = None
+    elastic_band: float = 0.05
 
     def __post_init__(self) -> None:
         measure_code(self.strain_measure)
         check_density(self.density)
+        if not (0.0 < self.elastic_band < 1.0):
+            raise InputError("material.elastic_band",
+                             f"must lie in (0, 1), got {self.elastic_band!r}")
         if not (0.0 < self.k < 3.0):
             raise InputError("material.k", f"must lie in (0, 3), got {self.k!r}")
         if not (0.0 <= self.kt):
@@ -310,8 +317,9 @@ class CrushableFoam:
         t = -s / kappa
         e_el = t / self.elasticity.axial_modulus
         evp = -(e_tot - e_el)
-        elastic = evp[1:] < 0.05 * np.abs(e_tot[1:])
-        above = np.nonzero(evp[1:] < -0.05 * np.abs(e_tot[1:]))[0]
+        band = self.elastic_band
+        elastic = evp[1:] < band * np.abs(e_tot[1:])
+        above = np.nonzero(evp[1:] < -band * np.abs(e_tot[1:]))[0]
         if above.size:
             i = int(above[0]) + 1
             raise InputError(

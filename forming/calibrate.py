@@ -1,0 +1,195 @@
+"""Meso to macro: the macro core's C365 curve from a meso-scale compression run.
+
+``forming calibrate meso_compression --out DIR [--set ...]`` runs the meso case (its
+cell walls modelled) into ``DIR/meso``, turns its nominal stress-strain curve into the
+curve the macro core reads (:meth:`CompressionCurve.from_csv`), and checks it: the macro
+``core_compression`` run with that curve and the meso run's initial modulus, in
+``DIR/check``, must reproduce it (its ``curve_rmse_rel``). Written into ``DIR``:
+
+* ``c365_meso.csv``: the curve, with its provenance in ``#`` lines;
+* ``calibration.json``: the through-thickness modulus, where and why the curve was cut,
+  the check's error, and the command that uses the curve;
+* ``calibration.png``: the meso curve, the shipped macro curve and the calibrated macro
+  run on one plot.
+
+Only the part of a meso run the macro crushable foam can represent is kept
+(:func:`representable`): the curve ends before a point where it rises faster than the
+elastic line (its plastic strain would decrease), and points closer than
+:data:`MIN_SPACING` in strain are merged. A fall, however steep (walls breaking), is
+plastic straining and is kept. Before the walls buckle the curve is put on the macro
+core's elastic line (:func:`straighten`), so that the foam's yield is where they buckle.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from forming.errors import InputError
+from forming.materials.curves import CompressionCurve
+
+log = logging.getLogger(__name__)
+
+MIN_SPACING = 1e-4  # smallest strain between two kept points of the curve
+BAND = 0.005  # a meso point within this fraction of the elastic line is on it
+CURVE_FILE = "c365_curve.csv"  # what meso_compression writes into its folder
+CASES = ("meso_compression",)
+
+
+def elastic_line(strain: np.ndarray, modulus: float) -> np.ndarray:
+    """Nominal stress of the macro core's elastic line (its strain measure) at ``strain``."""
+    from forming.materials.kernels import strain_f, strain_theta
+    from forming.materials.library import honeycomb_core
+    from forming.materials.solids import measure_code
+
+    m = measure_code(honeycomb_core("transverse", plastic=False).strain_measure)
+    lam = 1.0 - np.asarray(strain, dtype=float)
+    c = lam**2
+    e_tot = np.array([strain_f(ci, m) for ci in c])
+    kappa = np.array([2 * ci * strain_theta(ci, ci, m) for ci in c]) / lam
+    return -kappa * modulus * e_tot
+
+
+def straighten(strain: np.ndarray, stress: np.ndarray, modulus: float
+               ) -> tuple[np.ndarray, int]:
+    """The curve put on the elastic line up to the onset of the walls' buckling.
+
+    Points before the first that falls :data:`BAND` below the elastic line are moved onto
+    it; returns the curve and that point's index. Before the walls buckle, the meso
+    curve and the macro core's elastic line differ by a few tenths of a per cent (the
+    walls' Poisson restraint at the platens, the measures); after it the curve is the
+    meso run's.
+    """
+    line = elastic_line(strain, modulus)
+    below = np.nonzero(stress[1:] < (1.0 - BAND) * line[1:])[0]
+    onset = int(below[0]) + 1 if below.size else len(strain)
+    out = np.asarray(stress, dtype=float).copy()
+    out[:onset] = line[:onset]
+    return out, onset
+
+
+def representable(strain: np.ndarray, stress: np.ndarray, modulus: float
+                  ) -> tuple[np.ndarray, np.ndarray, str]:
+    """The longest leading part of a nominal curve that the macro core can follow.
+
+    Points closer than :data:`MIN_SPACING` in strain are merged; then the curve is cut
+    before the first point the crushable foam of ``modulus`` refuses (the checks of
+    :attr:`CrushableFoam.hardening`: a rise steeper than the elastic line, a point
+    above it).
+
+    Returns:
+        (strain, stress, the foam's reason for the cut: ``""`` if the curve was kept whole).
+    """
+    keep = [0]
+    for i in range(1, len(strain)):
+        if strain[i] - strain[keep[-1]] >= MIN_SPACING:
+            keep.append(i)
+    e, s = np.asarray(strain)[keep], np.asarray(stress)[keep]
+    why = ""
+    for n in range(e.size, 2, -1):
+        try:
+            _ = _foam(e[:n], s[:n], modulus, BAND).hardening
+        except InputError as err:
+            why = why or f"cut at strain {e[n - 1]:.4g}: {err}"
+            continue
+        return e[:n], s[:n], why
+    return e[:2], s[:2], why
+
+
+def _foam(strain: np.ndarray, stress: np.ndarray, modulus: float, band: float):
+    """The macro core (shipped data) with this curve and through-thickness modulus."""
+    from forming.materials.library import core_data, honeycomb_core
+    from forming.materials.solids import CrushableFoam
+
+    elastic = honeycomb_core("transverse", plastic=False, E_through=modulus)
+    foam = core_data()["foam"]
+    return CrushableFoam(elastic.elasticity, CompressionCurve(tuple(strain), tuple(stress),
+                                                              "meso"),
+                         k=foam["k"]["value"], kt=foam["kt"]["value"],
+                         strain_measure=elastic.strain_measure, elastic_band=band)
+
+
+def calibrate(case: str, out: Path, assignments: list[str]) -> dict:
+    """Run the meso case, write the macro curve and check it (collective).
+
+    Raises:
+        InputError: ``case`` is not a meso case, or its run gave too short a curve.
+    """
+    from forming.case import run_case
+
+    if case not in CASES:
+        raise InputError("calibrate", f"calibrates from a meso case ({', '.join(CASES)}), "
+                         f"not {case!r}")
+    comm = MPI.COMM_WORLD
+    out = Path(out)
+    meso = run_case(case, out / "meso", assignments)
+    raw = CompressionCurve.from_csv(out / "meso" / CURVE_FILE)
+    e_raw, s_raw = np.asarray(raw.strain), np.asarray(raw.stress)
+    modulus = float(s_raw[1] / elastic_line(e_raw[1:2], 1.0)[0])
+    s_straight, onset = straighten(e_raw, s_raw, modulus)
+    e, s, cut = representable(e_raw, s_straight, modulus)
+    if e.size < 3:
+        raise InputError("calibrate", f"the meso run ({meso['status']}) gave {e.size} usable "
+                         "points; the macro curve needs 3 or more")
+    if meso["status"] != "completed":
+        cut = cut or f"the meso run {meso['status']}: {meso.get('reason', '')}"
+    curve_path = out / "c365_meso.csv"
+    if comm.rank == 0:
+        CompressionCurve(tuple(e), tuple(s), str(curve_path)).to_csv(
+            curve_path, f"C365 nominal curve from forming calibrate {case} "
+            f"({' '.join('--set ' + a for a in assignments) or 'defaults'}); meso run "
+            f"{meso['status']} at strain {e_raw[-1]:.4g}; initial modulus {modulus:.6g} MPa")
+    comm.barrier()
+    sets = [f"curve={curve_path}", f"modulus={modulus!r}", f"strain={float(e[-1])!r}",
+            f"elastic_band={BAND!r}"]
+    check = run_case("core_compression", out / "check", sets)
+    macro = _macro_curve(out / "check")
+    n = e.size
+    against_meso = float(np.sqrt(np.mean((np.interp(e_raw[:n], *macro) - s_raw[:n]) ** 2))
+                         / np.sqrt(np.mean(s_raw[:n] ** 2)))
+    result = {
+        "case": case, "assignments": assignments,
+        "meso_status": meso["status"], "meso_strain_reached": float(e_raw[-1]),
+        "curve": str(curve_path), "points": int(e.size), "strain_end": float(e[-1]),
+        "cut": cut or None, "modulus_MPa": modulus,
+        "buckling_onset_strain": float(e_raw[min(onset, e_raw.size - 1)]),
+        "largest_change_before_onset_rel": float(np.max(np.abs(
+            s_straight[1:onset] / s_raw[1:onset] - 1.0), initial=0.0)),
+        "check_status": check["status"],
+        "check_rmse_rel": check.get("metrics", {}).get("curve_rmse_rel"),
+        "macro_against_meso_rmse_rel": against_meso,
+        "use": "forming run core_compression " + " ".join(f"--set {x}" for x in sets),
+    }
+    if comm.rank == 0:
+        (out / "calibration.json").write_text(json.dumps(result, indent=2) + "\n")
+        _plot(out, e_raw, s_raw, macro)
+        log.info("calibrated curve %s: %d points to strain %.4g, modulus %.4g MPa, macro "
+                 "check %s (relative RMS %.3g)", curve_path, e.size, e[-1], modulus,
+                 check["status"], result["check_rmse_rel"] or float("nan"))
+    return result
+
+
+def _macro_curve(check: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Nominal strain and stress of a ``core_compression`` run."""
+    h = np.genfromtxt(check / "history.csv", delimiter=",", names=True)
+    p = json.loads((check / "summary.json").read_text())["parameters"]
+    return h["t"] * p["strain"], -h["reaction_top_z_N"] / p["width"] ** 2
+
+
+def _plot(out: Path, e_meso: np.ndarray, s_meso: np.ndarray,
+          macro: tuple[np.ndarray, np.ndarray]) -> Path:
+    """Meso curve, shipped macro curve and the calibrated macro run, on one plot."""
+    from forming.materials.library import honeycomb_core
+    from forming.output import plot_curves
+
+    grid = np.linspace(0.0, float(e_meso[-1]), 200)
+    shipped = honeycomb_core("isotropic").curve
+    return plot_curves(out / "calibration.png", [
+        (e_meso, s_meso, "meso run (cell walls)", "o-"),
+        (grid, shipped.interpolate(grid), "shipped macro curve (estimate of Fig. 6)", "k:"),
+        (*macro, "macro core_compression with the calibrated curve", "x--"),
+    ], "nominal strain", "nominal stress [MPa]", "Meso to macro: C365 curve")
