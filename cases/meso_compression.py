@@ -14,6 +14,10 @@ initial modulus against Gibson and Ashby's E_s x relative density, the buckling 
 against the linear buckling strain of the patch itself (``--set buckling=true``) and
 against plate buckling of the walls, and a picture of the buckled walls.
 
+``load=shear_x`` or ``load=shear_y`` moves the bonded top platen sideways instead (the
+platens keep their distance: a C273 shear test; nominal shear strain = move / height):
+``shear_modulus_MPa``, the transverse shear modulus the macro core needs.
+
 The bottom platen is bonded; the top one is bonded too (default) or, with
 ``platen=contact``, a rigid tool that touches the wall edges with friction (the paper's
 original meso model; contact is enforced at the wall edges' element vertices). The
@@ -56,6 +60,7 @@ import numpy as np
 from forming.calibrate import CURVE_FILE
 from forming.case import main, require
 from forming.contact.shapes import Plane
+from forming.errors import InputError
 from forming.job import Job, Response
 from forming.materials.curves import CompressionCurve
 from forming.materials.elasticity import IsotropicElasticity
@@ -114,6 +119,7 @@ class Params:
     flange_width: float = 1.0  # dummy flange width into the pores [mm] (our estimate)
     flange_thickness: float = 0.3  # dummy flange thickness [mm] (our estimate)
     max_step: float = 0.05  # largest load step (fraction of the stroke)
+    load: Literal["compression", "shear_x", "shear_y"] = "compression"  # or transverse shear
 
 
 def patch_of(p: Params) -> HoneycombPatch:
@@ -131,6 +137,10 @@ def build(p: Params) -> Job:
                          "fracture_energy"),
             nonnegative=("imperfection", "stabilisation", "platen_friction"),
             fraction=("strain",))
+    shear = p.load != "compression"
+    if shear and (p.platen != "bonded" or p.buckling):
+        raise InputError("--set load", "transverse shear moves bonded platens "
+                         "(platen=bonded, buckling=false)")
     patch = patch_of(p)
     mesh = honeycomb_mesh(patch)
     cardboard = IsotropicElasticity(p.wall_modulus, p.wall_poisson)
@@ -158,8 +168,10 @@ def build(p: Params) -> Job:
         interfaces = (Interface("wall_flange", "walls", "flange", kind="bonded"),)
     bottoms = tuple(Displacement(b, bot, x=0.0, y=0.0, z=0.0, reaction=False)
                     for b, bot, _t, _p in parts if bot is not None)
-    bonded = bottoms + tuple(Displacement(b, top, x=0.0, y=0.0, z=Linear(-stroke))
-                             for b, _b, top, _p in parts)
+    axis = {"compression": "z", "shear_x": "x", "shear_y": "y"}[p.load]
+    moves = {"x": 0.0, "y": 0.0, "z": 0.0}
+    moves[axis] = Linear(stroke if shear else -stroke)  # shear: the top moves sideways
+    bonded = bottoms + tuple(Displacement(b, top, **moves) for b, _b, top, _p in parts)
     # the linear buckling analysis: the walls alone, both platens holding them (contact
     # and a bonded infill are not linear in the load)
     held = (bottoms[0], bonded[len(bottoms)])  # the walls' bottom and top
@@ -168,9 +180,9 @@ def build(p: Params) -> Job:
     if p.platen == "bonded":
         loading = dict(displacements=bonded)
         # a reaction is named by its face, and by body and face when there are several
-        columns = [f"reaction_{top if len(parts) == 1 else f'{b}_{top}'}_z_N"
+        columns = [f"reaction_{top if len(parts) == 1 else f'{b}_{top}'}_{axis}_N"
                    for b, _bt, top, _p in parts]
-        scale = -1.0
+        scale = 1.0 if shear else -1.0
     else:  # rigid platens that touch the wall edges (and infill) and may slide on them
         plane = Plane((0.0, 0.0, p.height), (0.0, 0.0, -1.0))
         loading = dict(displacements=bottoms,
@@ -200,6 +212,11 @@ def build(p: Params) -> Job:
 
     def metrics(rec, model) -> dict:
         e, s = nominal(rec)
+        if shear:  # a transverse shear modulus (ASTM C273 with bonded platens)
+            return {"relative_density": rho,
+                    "shear_modulus_MPa": float(s[1] / e[1]) if len(e) > 1 else float("nan"),
+                    "final_strain": float(e[-1]), "final_stress_MPa": float(s[-1]),
+                    "fracture_energy_Nmm": float(rec.column("fracture_energy_Nmm")[-1])}
         peak = int(np.argmax(s))
         beyond = e >= max(2 * e[peak], 0.05)
         strain_max, strain_min = wall_strain_extremes(model.body)
@@ -226,6 +243,11 @@ def build(p: Params) -> Job:
 
     def plots(rec, out: Path) -> list[Path]:
         e, s = nominal(rec)
+        if shear:
+            return [plot_curves(out / "stress_strain.png", [(e, s, "computed (meso)", "o-")],
+                                "nominal shear strain", "nominal shear stress [MPa]",
+                                f"Meso transverse shear ({p.load}), {p.cells[0]} x "
+                                f"{p.cells[1]} cells")]
         if len(e) >= 3:  # the curve in the macro core's format (forming calibrate)
             CompressionCurve(tuple(e), tuple(np.maximum(s, 0.0)), "meso_compression").to_csv(
                 out / CURVE_FILE, f"meso_compression {p.cells[0]} x {p.cells[1]} cells, "

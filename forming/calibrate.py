@@ -1,14 +1,16 @@
 """Meso to macro: the macro core's C365 curve from a meso-scale compression run.
 
-``forming calibrate meso_compression --out DIR [--set ...]`` runs the meso case (its
+``forming calibrate meso_compression --out DIR [--set ...] [--no-shear]`` runs the meso case (its
 cell walls modelled) into ``DIR/meso``, turns its nominal stress-strain curve into the
 curve the macro core reads (:meth:`CompressionCurve.from_csv`), and checks it: the macro
 ``core_compression`` run with that curve and the meso run's initial modulus, in
 ``DIR/check``, must reproduce it (its ``curve_rmse_rel``). Written into ``DIR``:
 
 * ``c365_meso.csv``: the curve, with its provenance in ``#`` lines;
-* ``calibration.json``: the through-thickness modulus, where and why the curve was cut,
-  the check's error, and the command that uses the curve;
+* ``calibration.json``: the through-thickness modulus, the transverse shear moduli
+  along x (ribbon) and y from two shear runs of the same patch (``DIR/shear_x``,
+  ``DIR/shear_y``; ``--no-shear`` skips them), where and why the curve was cut, the
+  check's error, and the command that uses the curve;
 * ``calibration.png``: the meso curve, the shipped macro curve and the calibrated macro
   run on one plot.
 
@@ -113,8 +115,15 @@ def _foam(strain: np.ndarray, stress: np.ndarray, modulus: float, band: float):
                          strain_measure=elastic.strain_measure, elastic_band=band)
 
 
-def calibrate(case: str, out: Path, assignments: list[str]) -> dict:
+SHEAR_STRAIN = 0.005  # nominal shear strain of the shear runs (elastic walls' range)
+
+
+def calibrate(case: str, out: Path, assignments: list[str], shear: bool = True) -> dict:
     """Run the meso case, write the macro curve and check it (collective).
+
+    With ``shear``, the same patch is also sheared along x (the ribbon) and y
+    (``load=shear_x|shear_y`` to :data:`SHEAR_STRAIN`, in ``out/shear_x|shear_y``): the
+    transverse shear moduli the macro core needs (``G_through``).
 
     Raises:
         InputError: ``case`` is not a meso case, or its run gave too short a curve.
@@ -151,8 +160,16 @@ def calibrate(case: str, out: Path, assignments: list[str]) -> dict:
     n = e.size
     against_meso = float(np.sqrt(np.mean((np.interp(e_raw[:n], *macro) - s_raw[:n]) ** 2))
                          / np.sqrt(np.mean(s_raw[:n] ** 2)))
+    moduli = {}
+    if shear:
+        for load in ("shear_x", "shear_y"):
+            run = run_case(case, out / load, [*assignments, f"load={load}",
+                                              f"strain={SHEAR_STRAIN!r}", "max_step=0.5",
+                                              "buckling=false"])
+            moduli[f"shear_modulus_{load[-1]}z_MPa"] = run.get("metrics", {}).get(
+                "shear_modulus_MPa")
     result = {
-        "case": case, "assignments": assignments,
+        "case": case, "assignments": assignments, **moduli,
         "meso_status": meso["status"], "meso_strain_reached": float(e_raw[-1]),
         "curve": str(curve_path), "points": int(e.size), "strain_end": float(e[-1]),
         "cut": cut or None, "modulus_MPa": modulus,

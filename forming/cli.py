@@ -141,7 +141,8 @@ def _calibrate(args: argparse.Namespace) -> int:
     setup(quiet=args.quiet)
     comm = MPI.COMM_WORLD
     out = args.out or Path("results") / f"{args.case}_calibration"
-    r, code = guarded(comm, lambda: calibrate(args.case, out, args.assignments))
+    r, code = guarded(comm, lambda: calibrate(args.case, out, args.assignments,
+                                              not args.no_shear))
     if code is not None:
         return code
     if comm.rank == 0:
@@ -150,6 +151,9 @@ def _calibrate(args: argparse.Namespace) -> int:
         if r["cut"]:
             print(f"  ends early: {r['cut']}")
         print(f"  macro check: {r['check_status']}, relative RMS error {r['check_rmse_rel']}")
+        for key in ("shear_modulus_xz_MPa", "shear_modulus_yz_MPa"):
+            if key in r:
+                print(f"  {key} = {r[key]}")
         print(f"  use it: {r['use']}")
         print(f"outputs in {Path(out).resolve()}")
     return 0 if r["check_status"] == "completed" else 1
@@ -284,6 +288,8 @@ def main(argv: list[str] | None = None) -> None:
                      help="output folder (default results/<case>_calibration)")
     cal.add_argument("--set", dest="assignments", action="append", default=[],
                      metavar="KEY=VALUE", help="set a parameter of the meso case (repeatable)")
+    cal.add_argument("--no-shear", action="store_true",
+                     help="skip the two transverse shear runs (the shear moduli)")
     cal.add_argument("--quiet", action="store_true", help="warnings and errors only")
     args, extra = parser.parse_known_args(argv)
     if args.command == "study":

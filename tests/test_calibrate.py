@@ -21,7 +21,7 @@ def test_calibrated_curve_is_reproduced_by_the_macro_core(tmp_path):
     or the macro core's reading of a user curve and modulus changed.
     """
     r = calibrate("meso_compression", tmp_path,
-                  ["cells=1,1", "height=10", "layers=3", "strain=0.03"])
+                  ["cells=1,1", "height=10", "layers=3", "strain=0.03"], shear=False)
     assert r["meso_status"] == "completed" and r["check_status"] == "completed"
     assert r["buckling_onset_strain"] < 0.03  # the curve has a post-buckling part
     assert r["check_rmse_rel"] < 0.01
@@ -58,3 +58,13 @@ def test_calibrate_refuses_a_macro_case(tmp_path, capsys):
         cli_main(["calibrate", "core_compression", "--out", str(tmp_path)])
     assert exc.value.code != 0
     assert "calibrate" in capsys.readouterr().err
+
+
+def test_shear_needs_bonded_platens(tmp_path):
+    """A transverse shear run names ``--set load`` when its platens only touch the walls
+    (a touching platen cannot carry shear without friction)."""
+    from forming.case import run_case
+    from forming.errors import InputError
+
+    with pytest.raises(InputError, match="load"):
+        run_case("meso_compression", tmp_path, ["load=shear_x", "platen=contact"])
