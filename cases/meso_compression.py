@@ -108,6 +108,7 @@ class Params:
     fracture_strain: float = 0.067  # wall fracture strain (Table 1)
     fracture_energy: float = 7.4  # wall fracture energy G_f [N/mm] (estimate, materials.md)
     erosion: bool = True  # erode spent points (implicit: needs the stabilisation)
+    damage_viscosity: float = 0.0  # viscous lag of the walls' damage [mm of platen travel]
     strain: float = 0.06  # nominal strain reached (0 < strain < 1)
     imperfection: float = 0.05  # largest imperfection move [mm]
     seed: int = 0  # seed of the imperfection
@@ -135,7 +136,8 @@ def build(p: Params) -> Job:
     require(p, positive=("wall_length", "wall_thickness", "height", "size", "wall_modulus",
                          "flange_width", "flange_thickness", "fracture_strain",
                          "fracture_energy"),
-            nonnegative=("imperfection", "stabilisation", "platen_friction"),
+            nonnegative=("imperfection", "stabilisation", "platen_friction",
+                         "damage_viscosity"),
             fraction=("strain",))
     shear = p.load != "compression"
     if shear and (p.platen != "bonded" or p.buckling):
@@ -145,7 +147,8 @@ def build(p: Params) -> Job:
     mesh = honeycomb_mesh(patch)
     cardboard = IsotropicElasticity(p.wall_modulus, p.wall_poisson)
     material = (FracturingSolid(cardboard, p.fracture_strain, p.fracture_energy,
-                                erosion=p.erosion, density=WALL_DENSITY)
+                                erosion=p.erosion, viscosity=p.damage_viscosity,
+                                density=WALL_DENSITY)
                 if p.fracture else ElasticSolid(cardboard, density=WALL_DENSITY))
     stroke = p.strain * p.height
     split = p.variant != "original"  # the walls are one region of several

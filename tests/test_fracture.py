@@ -102,3 +102,27 @@ def test_crack_band_energy_is_mesh_independent(tmp_path):
         assert r.band == pytest.approx(4.0 / cells, rel=1e-3)
         assert r.dissipated == pytest.approx(r.expected, rel=0.02), cells
         assert r.force[-1] < 0.1 * r.force.max()  # broken
+
+
+def test_viscous_damage_follows_with_its_lag():
+    """With a damage viscosity eta [mm of travel], a step of travel s closes the share
+    w / (1 + w), w = s / eta, of the gap to the rate-independent damage (backward Euler
+    of Duvaut-Lions), and its tangent is the rate-independent one scaled by that share
+    (central difference, 1e-6). A failure means the regularisation no longer converges
+    to the rate-independent law as eta -> 0, or its tangent is inconsistent.
+    """
+    fast = FracturingSolid(IsotropicElasticity(410.0, 0.0))
+    slow = FracturingSolid(IsotropicElasticity(410.0, 0.0), viscosity=0.5)
+    c = np.diag([np.exp(2 * 0.09), 1.0, 1.0]).reshape(1, 9)
+    hist, kappa = np.zeros((1, 6)), np.array([0.08])
+    hist[0, 1] = 1.0  # a band of 1 mm: eps_u = 0.54
+    ginv = (np.eye(3).reshape(1, 9), 1)
+    d_fast = evaluate(fast, c, hist, kappa, cells=ginv).ep[0, 0]
+    r = evaluate(slow, c, hist, kappa, cells=ginv, load_increment=0.1, travel=2.0)
+    share = 0.4 / 1.4  # travel 0.2 mm over 0.5 mm
+    assert r.ep[0, 0] == pytest.approx(share * d_fast, rel=1e-12)
+    h = 1e-6
+    dc = np.diag([2 * h, 0.0, 0.0]).reshape(1, 9)  # dE_11 = h
+    sp = evaluate(slow, c + dc, hist, kappa, cells=ginv, load_increment=0.1, travel=2.0).S
+    sm = evaluate(slow, c - dc, hist, kappa, cells=ginv, load_increment=0.1, travel=2.0).S
+    assert r.D.reshape(6, 6)[0, 0] == pytest.approx((sp - sm)[0, 0] / (2 * h), rel=1e-6)

@@ -20,6 +20,7 @@ from forming.materials.kernels.damage import (
     DAMAGE_EPS_F,
     DAMAGE_ERODE,
     DAMAGE_GF,
+    DAMAGE_RATE,
     DAMAGE_SIGMA_F,
     N_DAMAGE_PROPS,
 )
@@ -42,6 +43,9 @@ class FracturingSolid:
         erosion: Erode a point once its band is spent (no stress, no shape check),
             as an explicit code deletes failed elements. An eroded element's inner
             nodes are then held only by a scene's stabilisation.
+        viscosity: Viscous regularisation of the damage [mm of the tools' travel]: the
+            damage follows its rate-independent value with this lag (0: none, the
+            default). Implicit runs only; it needs something in the scene to move.
         strain_measure: ``"hencky"`` (default), ``"biot"`` or ``"biot-hencky"``.
         density: Mass density [tonne/mm^3] (explicit dynamics only; None: not given).
     """
@@ -51,6 +55,7 @@ class FracturingSolid:
     fracture_energy: float = 7.4
     max_damage: float = 0.99
     erosion: bool = False
+    viscosity: float = 0.0
     strain_measure: StrainMeasure = "hencky"
     density: float | None = None
 
@@ -58,6 +63,8 @@ class FracturingSolid:
         if not isinstance(self.elasticity, IsotropicElasticity):
             raise InputError("material.elasticity", "a fracturing solid is isotropic: give "
                              f"IsotropicElasticity, got {type(self.elasticity).__name__}")
+        if not (math.isfinite(self.viscosity) and self.viscosity >= 0.0):
+            raise InputError("material.viscosity", f"must be >= 0, got {self.viscosity!r}")
         for name in ("fracture_strain", "fracture_energy"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
@@ -99,6 +106,7 @@ class FracturingSolid:
         props[DAMAGE_GF] = self.fracture_energy
         props[DAMAGE_DMAX] = self.max_damage
         props[DAMAGE_ERODE] = 1.0 if self.erosion else 0.0
+        props[DAMAGE_RATE] = 1.0  # rate-independent; evaluate() sets a step's share
         empty = np.zeros(1)
         return KernelData(self.elasticity.stiffness(), measure_code(self.strain_measure), True,
                           props, empty, empty, empty, damage=True)

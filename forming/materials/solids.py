@@ -19,7 +19,7 @@ from forming.materials import kernels
 from forming.materials.curves import CompressionCurve, pchip_slopes
 from forming.materials.elasticity import Elasticity
 from forming.materials.kernels import N_PROPS, PROP_ALPHA, PROP_PT, PROP_VISC
-from forming.materials.kernels.damage import damage_points
+from forming.materials.kernels.damage import DAMAGE_RATE, damage_points
 
 log = logging.getLogger(__name__)
 
@@ -119,7 +119,13 @@ def evaluate(
     if k.damage:
         ginv, per_cell = (np.eye(3).reshape(1, 9), n) if cells is None else cells
         s_tmp, h_tmp = np.zeros((n, 6)), np.zeros(n)
-        nbad, worst = damage_points(cm, ep_in, evp_in, k.cel, k.measure, k.props,
+        props = k.props
+        eta = getattr(material, "viscosity", 0.0)
+        if eta > 0.0 and load_increment > 0.0 and not frozen:
+            w = load_increment * travel / eta  # the step's travel over the viscosity
+            props = k.props.copy()
+            props[DAMAGE_RATE] = w / (1.0 + w)
+        nbad, worst = damage_points(cm, ep_in, evp_in, k.cel, k.measure, props,
                                     np.ascontiguousarray(ginv), max(int(per_cell), 1), s,
                                     d, s_tmp, h_tmp, want_tangent)
         if not frozen:

@@ -107,6 +107,7 @@ class ImplicitSolver:
         self._contact_s = 0.0
         self._force_scale = 0.0
         self._u_before: list[np.ndarray] | None = None
+        self._extrapolated = False  # the step's guess came from the extrapolating predictor
         self._work_total = 0
         self._work_accepted = 0
         self._steps = 0
@@ -239,7 +240,9 @@ class ImplicitSolver:
 
     def predict(self, t_new: float, t_old: float, dt_old: float) -> None:
         """Initial guess for the step to ``t_new`` (the load is already set)."""
-        if self.options.predictor == "extrapolate" and self._u_prev is not None and dt_old > 0:
+        self._extrapolated = (self.options.predictor == "extrapolate"
+                              and self._u_prev is not None and dt_old > 0)
+        if self._extrapolated:
             ratio = (t_new - t_old) / dt_old
             for b, prev in zip(self._bodies, self._u_prev, strict=True):
                 b.u.x.array[:] += ratio * (b.u.x.array - prev)
@@ -282,6 +285,16 @@ class ImplicitSolver:
         self._updates = 0
         for aug in range(self.options.max_augmentations + 1):
             ok, reason = self._newton()
+            if not ok and aug == 0 and snes.getIterationNumber() == 0 and self._extrapolated:
+                # the extrapolated guess itself failed (an element it inverts, where the
+                # last step moved fast): start again from the last converged state
+                log.info("step: the extrapolated guess failed (%s); Newton restarts from "
+                         "the last converged state", reason)
+                for b, u in zip(self._bodies, self._u_before, strict=True):
+                    b.u.x.array[:] = u
+                    b.invalidate()
+                self._extrapolated = False
+                ok, reason = self._newton()
             iterations += snes.getIterationNumber()
             if not ok or not uzawa:
                 break

@@ -13,6 +13,12 @@ d_max`` keeps the implicit system regular). Optionally a point whose band is spe
 failed element: it carries no stress, and its shape is no longer checked (a spent point
 stretched several times its length would otherwise invert its element and stop the run).
 
+Viscous regularisation (optional, as Abaqus/Standard's for damage): the damage of a step
+is ``d_n + r (d(kappa) - d_n)`` with ``r = w / (1 + w)``, ``w`` the step's travel over a
+viscosity length; ``r = 1`` is rate-independent. A crack that would run at a fixed
+platen position (a snap-back of the structure) then opens over a short travel instead,
+which an implicit solver can follow.
+
 Crack band (Bazant and Oh 1983): ``eps_u = 2 G_f / (sigma_f h)`` so that a band of
 width ``h`` dissipates the fracture energy ``G_f`` per unit crack area whatever the
 element size. ``h`` is the element's chord through its centre along the principal
@@ -42,7 +48,8 @@ DAMAGE_SIGMA_F = 1  # props: equivalent stress at onset, E eps_f [MPa]
 DAMAGE_GF = 2  # props: fracture energy G_f [N/mm]
 DAMAGE_DMAX = 3  # props: largest damage
 DAMAGE_ERODE = 4  # props: 1 erodes a point whose band is spent, 0 keeps it
-N_DAMAGE_PROPS = 5
+DAMAGE_RATE = 5  # props: share of the gap to the rate-independent damage closed this step
+N_DAMAGE_PROPS = 6
 
 
 @_inner
@@ -128,7 +135,7 @@ def _damage_points(cmats, hist_n, kappa_n, cel, measure, props, ginv, per_cell, 
     """Body of :func:`damage_points`, with its scratch arrays."""
     cs, ms, qs, active, turn, rcs, rot, _cr, c_eig, _lu, _s, _ok = work
     geo, mt, tmp, _sys = twork
-    eps_f, d_max = props[DAMAGE_EPS_F], props[DAMAGE_DMAX]
+    eps_f, d_max, rate = props[DAMAGE_EPS_F], props[DAMAGE_DMAX], props[DAMAGE_RATE]
     erode = props[DAMAGE_ERODE] > 0.0
     lam, mu = cel[0, 1], 0.5 * cel[3, 3]  # isotropic
     young = mu * (3.0 * lam + 2.0 * mu) / (lam + mu)
@@ -165,6 +172,10 @@ def _damage_points(cmats, hist_n, kappa_n, cel, measure, props, ginv, per_cell, 
         if h > 0.0:
             eps_u = band_ultimate_strain(h, props)
             d, slope = softening_law(kappa, eps_f, eps_u, d_max)
+        # viscous regularisation (Duvaut-Lions, backward Euler): the damage closes the
+        # share ``rate`` of its gap to the rate-independent value in this step
+        d = hist_n[ip, 0] + rate * (d - hist_n[ip, 0])
+        slope *= rate
         t3, tp3, y, w_tr, wa = _split(e, lam, mu, d)
         t = (t3[0], t3[1], t3[2], 0.0, 0.0, 0.0)
         _mandel_rotation_into(q, rot)
@@ -177,7 +188,8 @@ def _damage_points(cmats, hist_n, kappa_n, cel, measure, props, ginv, per_cell, 
         # dissipation: Y dd by the trapezoidal rule over the steps
         hist_out[ip, 2] = hist_n[ip, 2] + 0.5 * (hist_n[ip, 3] + y) * (d - hist_n[ip, 0])
         hist_out[ip, 3] = y
-        hist_out[ip, 4] = 1.0 if (erode and h > 0.0 and kappa >= eps_u) else 0.0
+        spent = h > 0.0 and kappa >= eps_u and d >= 0.99 * d_max
+        hist_out[ip, 4] = 1.0 if (erode and spent) else 0.0
         kappa_out[ip] = kappa
         if not want_tangent:
             continue
