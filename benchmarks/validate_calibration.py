@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -36,9 +37,10 @@ def calibration(cells: str, strain: float, out: Path) -> tuple[dict, float | Non
            "meso_compression", "--out", str(out), "--quiet", "--set", f"cells={cells}",
            "--set", f"strain={strain:g}"]
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True,
-                          env={"OMP_NUM_THREADS": "1", "PATH": str(Path(sys.executable).parent)
-                               + ":/usr/bin:/bin"}, check=False)
+    env = dict(os.environ, OMP_NUM_THREADS="1",
+               PATH=f"{Path(sys.executable).parent}:{os.environ.get('PATH', '')}")
+    proc = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, env=env,
+                          check=False)
     wall = time.perf_counter() - t0
     if not result.is_file():
         raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stderr[-3000:]}")

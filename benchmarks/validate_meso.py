@@ -151,7 +151,7 @@ def main() -> None:
               "strains. The measured core peaks at 0.40 MPa and 0.03 strain: the missing "
               "piece is the walls' failure (fracture at 0.067 strain, Table 1; the largest "
               "wall strain column shows the walls reach it): the fracturing walls are in "
-              "the next section.",
+              "the section 'Meso-scale honeycomb: fracturing cell walls'.",
               "- Patch size: 1 x 1 and 3 x 3 agree to the buckling strain (moduli 1.3% "
               "apart) and part after it (the 3 x 3 patch 29% stiffer at 6% strain): "
               "the cut walls at a patch's sides stand free, and in a 1 x 1 patch they are "
