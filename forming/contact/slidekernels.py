@@ -27,6 +27,8 @@ import numba
 import numpy as np
 
 _H = 1e-5  # difference step of the Jacobian [mm] (well below the elastic slip, 5e-3 h)
+TOUCH = 1e-9  # a gap this small [mm] counts as closed: a body laid exactly on another
+# (gap 0 up to round-off, whose sign depends on the machine) is supported at once
 FADE = 0.1  # beyond the master's edge a node's force fades to zero over this part of a facet
 
 
@@ -170,7 +172,7 @@ def pair_residual(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps,
     n = smooth_normal(nn, xi, eta)
     g = (x[0] - p_m[0]) * n[0] + (x[1] - p_m[1]) * n[1] + (x[2] - p_m[2]) * n[2]
     trial_p = lam_n - eps * g
-    edge = -0.5 * width if width > 0.0 else 0.0
+    edge = -0.5 * width if width > 0.0 else -eps * TOUCH
     closed = trial_p >= edge if mode_p < 0 else mode_p == 1
     p = ramp(trial_p, width) if closed else 0.0
     shear = np.zeros(3)
