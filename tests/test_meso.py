@@ -192,7 +192,6 @@ def test_meso_compression_with_dummy_flanges(tmp_path):
 
 
 @pytest.mark.mpi
-@pytest.mark.slow  # 27 s: kept out of CI's 12 minutes (scripts/dev.sh validate runs it)
 def test_meso_compression_two_ranks_matches_serial(tmp_path):
     """Before the walls buckle (1% strain) the path is the same on any number of ranks:
     mpirun -n 2 gives the serial platen force to 1e-6 relative, on the same load steps,
