@@ -351,8 +351,11 @@ class CrushableFoam:
             i = int(np.nonzero(np.diff(evp_t) <= 0)[0][0]) + last_el + 1
             raise InputError(
                 "curve",
-                f"softening after point {i} is steeper than the elastic unloading line "
-                "(plastic strain would decrease): snap-back cannot be represented",
+                f"at point {i} (strain {e[i]:g}) the curve rises at least as steeply as the "
+                "elastic line "
+                f"(axial modulus {self.elasticity.axial_modulus:g} MPa): its plastic strain "
+                "would decrease, which hardening cannot represent (a fall, however steep, "
+                "is fine)",
             )
         sc0 = sig_c[0]
         pc0 = sc0 / self.k
