@@ -91,28 +91,34 @@ def representable(strain: np.ndarray, stress: np.ndarray, modulus: float
         if strain[i] - strain[keep[-1]] >= MIN_SPACING:
             keep.append(i)
     e, s = np.asarray(strain)[keep], np.asarray(stress)[keep]
-    why = ""
+    foam = _foam_with(modulus)
+    first_error = ""
     for n in range(e.size, 2, -1):
         try:
-            _ = _foam(e[:n], s[:n], modulus, BAND).hardening
+            _ = foam(e[:n], s[:n]).hardening
         except InputError as err:
-            why = why or f"cut at strain {e[n - 1]:.4g}: {err}"
+            first_error = first_error or str(err)
             continue
+        why = f"cut after strain {e[n - 1]:.4g}: {first_error}" if first_error else ""
         return e[:n], s[:n], why
-    return e[:2], s[:2], why
+    return e[:2], s[:2], f"cut after strain {e[1]:.4g}: {first_error}"
 
 
-def _foam(strain: np.ndarray, stress: np.ndarray, modulus: float, band: float):
-    """The macro core (shipped data) with this curve and through-thickness modulus."""
+def _foam_with(modulus: float):
+    """The macro core (shipped data, this through-thickness modulus) for a given curve."""
     from forming.materials.library import core_data, honeycomb_core
     from forming.materials.solids import CrushableFoam
 
     elastic = honeycomb_core("transverse", plastic=False, E_through=modulus)
-    foam = core_data()["foam"]
-    return CrushableFoam(elastic.elasticity, CompressionCurve(tuple(strain), tuple(stress),
-                                                              "meso"),
-                         k=foam["k"]["value"], kt=foam["kt"]["value"],
-                         strain_measure=elastic.strain_measure, elastic_band=band)
+    data = core_data()["foam"]
+
+    def foam(strain: np.ndarray, stress: np.ndarray) -> CrushableFoam:
+        return CrushableFoam(elastic.elasticity,
+                             CompressionCurve(tuple(strain), tuple(stress), "meso"),
+                             k=data["k"]["value"], kt=data["kt"]["value"],
+                             strain_measure=elastic.strain_measure, elastic_band=BAND)
+
+    return foam
 
 
 SHEAR_STRAIN = 0.005  # nominal shear strain of the shear runs (elastic walls' range)

@@ -98,9 +98,10 @@ def evaluate(
     ``cells`` gives a damaging material (:mod:`forming.materials.fracture`) the inverse
     Jacobians of the cells at their centres, (cells, 9), and the number of points per
     cell, for its crack bands; without it every point lies in a unit cube. Its history
-    is ``ep`` = ``[d, h, D, Y, 0, 0]`` (damage, band width, dissipated energy density,
-    energy release rate) and ``evp`` = the largest principal strain reached; it has the
-    closed-form tangent only, and ``frozen`` returns its history unchanged.
+    is ``ep`` = ``[d, h, D, Y, e, 0]`` (damage, band width, dissipated energy density,
+    energy release rate, eroded) and ``evp`` = kappa, the largest principal stress of the
+    undamaged solid over E reached; it has the closed-form tangent only, and ``frozen``
+    returns its history unchanged.
     """
     if tangent not in _TANGENTS:
         raise InputError("tangent", f"must be one of {sorted(_TANGENTS)}, got {tangent!r}")
@@ -118,7 +119,7 @@ def evaluate(
     ep_out, evp_out = ep_in.copy(), evp_in.copy()
     if k.damage:
         ginv, per_cell = (np.eye(3).reshape(1, 9), n) if cells is None else cells
-        s_tmp, h_tmp = np.zeros((n, 6)), np.zeros(n)
+        hist_out, kappa_out = np.zeros((n, 6)), np.zeros(n)
         props = k.props
         eta = getattr(material, "viscosity", 0.0)
         if eta > 0.0 and load_increment > 0.0 and not frozen:
@@ -127,9 +128,9 @@ def evaluate(
             props[DAMAGE_RATE] = w / (1.0 + w)
         nbad, worst = damage_points(cm, ep_in, evp_in, k.cel, k.measure, props,
                                     np.ascontiguousarray(ginv), max(int(per_cell), 1), s,
-                                    d, s_tmp, h_tmp, want_tangent)
+                                    d, hist_out, kappa_out, want_tangent)
         if not frozen:
-            ep_out, evp_out = s_tmp, h_tmp
+            ep_out, evp_out = hist_out, kappa_out
         return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad),
                            int(worst))
     if frozen:  # elastic about the plastic state: no return mapping, state unchanged

@@ -91,7 +91,6 @@ def plate_buckling_ratios(cells: int = 8, side: float = 10.0,
                                                           / ((3 + 1 / 3) ** 2 * plate))
 
 
-
 class BandResult(NamedTuple):
     """A crack-band bar pulled apart: its curve and the energy it dissipated."""
 

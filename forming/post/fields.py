@@ -1,13 +1,28 @@
-"""The volumetric plastic strain of a body as a field, with its integrals."""
+"""Quadrature-point values of a body as fields: the plastic strain, fracture energy."""
 
 from __future__ import annotations
 
+import numpy as np
 import ufl
 from dolfinx import fem  # noqa: I001
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
 from forming.bodies import SolidBody
 from forming.parallel import assemble_scalar
+
+
+def point_function(body: SolidBody, name: str) -> tuple[fem.Function, np.ndarray]:
+    """A scalar function at the body's quadrature points.
+
+    Returns:
+        The function, and its entries at the owned points in
+        :attr:`~SolidBody.point_cells` order.
+    """
+    import basix.ufl
+
+    Q = fem.functionspace(body.mesh, basix.ufl.quadrature_element(
+        body.mesh.basix_cell(), value_shape=(), degree=body.quadrature_degree))
+    return fem.Function(Q, name=name), Q.dofmap.list[body.point_cells].ravel()
 
 
 class PlasticStrainField:
@@ -21,12 +36,7 @@ class PlasticStrainField:
         if body.plastic is None:
             raise ValueError(f"body {body.name!r} has no plastic state")
         self.body = body
-        import basix.ufl
-
-        Q = fem.functionspace(body.mesh, basix.ufl.quadrature_element(
-            body.mesh.basix_cell(), value_shape=(), degree=body.quadrature_degree))
-        self.evp = fem.Function(Q, name="evp")
-        self._dofs = Q.dofmap.list[body.point_cells].ravel()
+        self.evp, self._dofs = point_function(body, "evp")
         self._forms: dict[str, fem.Form] = {}
 
     def update(self) -> None:
@@ -83,13 +93,8 @@ class PointIntegral:
     """
 
     def __init__(self, body: SolidBody):
-        import basix.ufl
-
         self.body = body
-        Q = fem.functionspace(body.mesh, basix.ufl.quadrature_element(
-            body.mesh.basix_cell(), value_shape=(), degree=body.quadrature_degree))
-        self.values = fem.Function(Q)
-        self._dofs = Q.dofmap.list[body.point_cells].ravel()
+        self.values, self._dofs = point_function(body, "values")
         self._form = fem.form(self.values * body.own_dx)
 
     def __call__(self, values) -> float:
