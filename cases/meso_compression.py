@@ -78,6 +78,7 @@ from forming.scene import (
     Interface,
     Linear,
     Scene,
+    SelfContact,
     Stabilisation,
     Tool,
 )
@@ -121,6 +122,7 @@ class Params:
     flange_thickness: float = 0.3  # dummy flange thickness [mm] (our estimate)
     max_step: float = 0.05  # largest load step (fraction of the stroke)
     load: Literal["compression", "shear_x", "shear_y"] = "compression"  # or transverse shear
+    self_contact: bool = True  # walls touch each other (explicit; implicit: stop there)
 
 
 def patch_of(p: Params) -> HoneycombPatch:
@@ -194,11 +196,15 @@ def build(p: Params) -> Job:
                        contacts=tuple(Contact(b, top, tool, friction=p.platen_friction)
                                       for b, _bt, top, tool in parts))
         columns, scale = [f"force_{tool}_z_N" for _b, _bt, _t, tool in parts], 1.0
+    # folds of the walls meet: contact between the walls' faces
+    touching = ((SelfContact("walls", "sides", depth=0.5 * p.wall_thickness),)
+                if p.self_contact else ())
     scene = Scene(
         name="meso_compression",
         mesh=mesh,
         bodies=tuple(bodies),
         interfaces=interfaces,
+        self_contacts=touching,
         stabilisation=Stabilisation(p.stabilisation) if p.stabilisation > 0 else None,
         **loading,
     )

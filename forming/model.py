@@ -186,6 +186,27 @@ class Model:
             for sl in scene.sliding
         ]
         self.constraints += self.sliding
+        self.self_contacts = []
+        if scene.self_contacts:
+            from forming.contact.selfcontact import SurfaceSelfContact
+
+            self.self_contacts = [SurfaceSelfContact(sc, self.bodies[sc.body])
+                                  for sc in scene.self_contacts]
+
+    def surfaces_meet(self) -> str | None:
+        """Why the state is not admissible to a solver that does not enforce self-contact.
+
+        Returns:
+            None while no self-contact surface meets itself; else what met (collective).
+        """
+        for sc in self.self_contacts:
+            count, deepest = sc.meeting(sc.body.u.x.array)
+            if count:
+                return (f"the {sc.spec.region!r} faces of {sc.spec.body!r} meet ({count} "
+                        f"nodes behind another cell's face, the deepest {-deepest:.3g} mm): "
+                        "self-contact is enforced by the explicit solver only "
+                        "(--set solver=explicit)")
+        return None
 
     @property
     def t(self) -> float:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Literal
 
 import numpy as np
 
@@ -18,6 +17,12 @@ from forming.errors import InputError
 from forming.materials.fabric import NonCrimpFabric
 from forming.materials.solids import SolidMaterial, check_density
 from forming.mesh import MeshData
+from forming.scene_contact import (  # noqa: F401  (the scene's public names)
+    Contact,
+    Interface,
+    SelfContact,
+    Sliding,
+)
 
 
 @dataclass(frozen=True)
@@ -197,168 +202,6 @@ class Tool:
         return out
 
 
-def _nonnegative(spec, prefix: str, names: tuple[str, ...]) -> None:
-    """Refuse a setting that is not a finite number >= 0."""
-    for name in names:
-        v = getattr(spec, name)
-        if not (math.isfinite(v) and v >= 0):
-            raise InputError(f"{prefix}.{name}", f"must be >= 0, got {v!r}")
-
-
-def _positive_if_given(spec, prefix: str, names: tuple[str, ...]) -> None:
-    """Refuse a given (not None) setting that is not a positive number."""
-    for name in names:
-        v = getattr(spec, name)
-        if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(f"{prefix}.{name}", f"must be positive, got {v!r}")
-
-
-@dataclass(frozen=True)
-class Contact:
-    """Frictional contact between a surface region of a body and a tool.
-
-    Attributes:
-        body: Name of the body.
-        region: Surface physical group that may touch the tool.
-        tool: Name of the tool.
-        friction: Coulomb coefficient (0: frictionless, no tangential terms compiled).
-        penalty: Augmented-Lagrangian penalty [N/mm^3]; default 10 E / h from the body's
-            largest elastic stiffness and the smallest surface edge.
-        tolerance: Admissible penetration [mm]; default 1% of the smallest surface edge
-            or of the body's thickness, whichever is smaller.
-        stick: How a sticking node is held: ``"augmented"`` (a stick constraint with
-            Uzawa updates: no slip while sticking) or ``"elastic_slip"`` (a penalty of
-            stiffness mu p / s_el with s_el = 0.5% of the facet edge, Abaqus' default;
-            no Uzawa; the stiffness vanishes with the pressure, so nodes that touch at
-            zero pressure, such as a fabric under a blank holder, do not cycle
-            between stick and slip; docs/theory.md, section 11).
-    """
-
-    body: str
-    region: str
-    tool: str
-    friction: float = 0.0
-    penalty: float | None = None
-    tolerance: float | None = None
-    stick: Literal["augmented", "elastic_slip"] = "augmented"
-
-    def __post_init__(self) -> None:
-        _nonnegative(self, "contact", ("friction",))
-        if self.stick not in ("augmented", "elastic_slip"):
-            raise InputError("contact.stick", f"must be 'augmented' or 'elastic_slip', "
-                             f"got {self.stick!r}")
-        _positive_if_given(self, "contact", ("penalty", "tolerance"))
-
-
-@dataclass(frozen=True)
-class Interface:
-    """Contact between two bodies over the facets they share in the scene mesh.
-
-    Small sliding: the surfaces are paired node to node as meshed (the nodes of the two
-    bodies that start at the same point), so the tangential slip must stay well below an
-    element size; the run warns when it does not (``docs/theory.md``, "Several bodies").
-
-    Attributes:
-        region: Surface physical group of shared (interior) facets, e.g.
-            ``interface_top`` of a sandwich blank.
-        body: The body whose outward normal is the contact normal (the core).
-        other: The body on the other side (a skin).
-        kind: ``"frictional"`` (separation allowed, Coulomb friction; ``friction = 0`` is
-            frictionless and compiles no tangential terms) or ``"bonded"`` (tied).
-        friction: Coulomb coefficient.
-        penalty: Augmented-Lagrangian penalty [N/mm^3]; default 10 E / h from the
-            first body's largest elastic stiffness and the smallest facet edge.
-        tolerance: Admissible penetration [mm]; default 1% of the smallest facet edge or
-            of the thinnest body, whichever is smaller.
-        slip_warning: Warn when the tangential slip exceeds this fraction of the facet
-            edge (the small-sliding pairing stops being accurate).
-        stabilisation: Weak spring on the relative motion of the two surfaces within a
-            load step, as a fraction of the penalty (0: none). It gives a skin that lifts
-            off the core, which has almost no bending stiffness, a stiffness against
-            floating; its force is recorded so its share can be checked.
-        smoothing: Width of a smoothed pressure ramp, as a fraction of the pressure that
-            the penetration tolerance stands for (penalty x tolerance); 0: sharp ramp.
-            At zero gap it leaves a pressure of half the width.
-    """
-
-    region: str
-    body: str
-    other: str
-    kind: str = "frictional"
-    friction: float = 0.0
-    penalty: float | None = None
-    tolerance: float | None = None
-    slip_warning: float = 0.5
-    stabilisation: float = 0.0
-    smoothing: float = 0.0
-
-    def __post_init__(self) -> None:
-        _nonnegative(self, "interface", ("stabilisation", "friction", "smoothing"))
-        if self.kind not in ("frictional", "bonded"):
-            raise InputError("interface.kind",
-                             f"must be 'frictional' or 'bonded', got {self.kind!r}")
-        if self.body == self.other:
-            raise InputError("interface.other", f"must differ from body {self.body!r}")
-        _positive_if_given(self, "interface", ("penalty", "tolerance", "slip_warning"))
-
-
-@dataclass(frozen=True)
-class Sliding:
-    """Finite-sliding contact between two bodies meshed apart (non-matching surfaces).
-
-    The slave region's nodes meet the master region's facets wherever they slide to
-    (:mod:`forming.contact.sliding`); friction is Coulomb with elastic slip (0.5% of the
-    shortest facet edge).
-
-    Attributes:
-        name: Name used in history columns (``sliding_<name>_x_N``).
-        master: The body whose facets carry the normal (a core).
-        master_region: Its surface group.
-        slave: The body whose nodes are constrained (a skin).
-        slave_region: Its surface group.
-        friction: Coulomb coefficient (0: frictionless).
-        penalty: Augmented-Lagrangian penalty [N/mm^3]; default 10 E / h from the master's
-            largest elastic stiffness and the shortest facet edge of either side.
-        tolerance: Admissible penetration [mm]; default 1% of that edge or of the thinner
-            body.
-        transfer: How a slave node's force reaches the master: ``"area"`` spread over the
-            node's tributary area (passes the contact patch test on non-matching meshes)
-            or ``"point"`` at its closest point (classic node to surface, cheaper).
-        stabilisation: A weak spring on each slave node's motion within a load step
-            relative to the master point it began the step on, as a fraction of the
-            penalty (0: none); its total force is recorded as
-            ``sliding_<name>_stabilisation_N``. For nodes that open and close from one
-            Newton iteration to the next.
-        smoothing: Width of a smoothed pressure ramp (a parabola around zero trial
-            pressure), as a fraction of the pressure the penetration tolerance stands for
-            (penalty x tolerance); 0: the sharp ramp. At zero gap it leaves an eighth of
-            the width; below a gap of half the width over the penalty, nothing.
-    """
-
-    name: str
-    master: str
-    master_region: str
-    slave: str
-    slave_region: str
-    friction: float = 0.0
-    penalty: float | None = None
-    tolerance: float | None = None
-    transfer: Literal["area", "point"] = "area"
-    stabilisation: float = 0.0
-    smoothing: float = 0.0
-
-    def __post_init__(self) -> None:
-        if not self.name.isidentifier():
-            raise InputError("sliding.name", f"must be an identifier, got {self.name!r}")
-        if self.master == self.slave:
-            raise InputError("sliding.slave", f"must differ from master {self.master!r}")
-        _nonnegative(self, "sliding", ("friction", "stabilisation", "smoothing"))
-        if self.transfer not in ("area", "point"):
-            raise InputError("sliding.transfer", f"must be 'area' or 'point', got "
-                             f"{self.transfer!r}")
-        _positive_if_given(self, "sliding", ("penalty", "tolerance"))
-
-
 @dataclass(frozen=True)
 class Stabilisation:
     """Viscous stabilisation of an implicit run through buckling and snap-through.
@@ -395,6 +238,7 @@ class Scene:
         contacts: Contact pairs between body surfaces and tools.
         interfaces: Contact between bodies over their shared facets.
         sliding: Finite-sliding contact between bodies meshed apart.
+        self_contacts: Surfaces of a body that may touch each other (folding walls).
         quadrature_degree: Quadrature degree of the bulk integrals (None: 2 for
             degree-1 bodies, 4 for degree 2, see ``docs/theory.md``).
         stabilisation: Viscous stabilisation of an implicit run (None: none).
@@ -416,6 +260,7 @@ class Scene:
     contacts: tuple[Contact, ...] = ()
     interfaces: tuple[Interface, ...] = ()
     sliding: tuple[Sliding, ...] = ()
+    self_contacts: tuple[SelfContact, ...] = ()
     quadrature_degree: int | None = None
     stabilisation: Stabilisation | None = None
     symmetry_copies: int = 1
@@ -454,39 +299,33 @@ class Scene:
             elif len(self.bodies) > 1:
                 raise InputError(f"body[{b.name}].region",
                                  "each body of a scene with several bodies needs a region")
+        def known(field_: str, who: str) -> None:
+            if who not in names:
+                raise InputError(field_, f"unknown body {who!r}; bodies: {names}")
+
         for itf in self.interfaces:
-            for who in (itf.body, itf.other):
-                if who not in names:
-                    raise InputError("interface.body", f"unknown body {who!r}; bodies: {names}")
+            known("interface.body", itf.body)
+            known("interface.body", itf.other)
             self.mesh.facet_tag_ids(itf.region)
         for sl in self.sliding:
-            for who in (sl.master, sl.slave):
-                if who not in names:
-                    raise InputError("sliding.master", f"unknown body {who!r}; bodies: {names}")
+            known("sliding.master", sl.master)
+            known("sliding.master", sl.slave)
             self.mesh.facet_tag_ids(sl.master_region)
             self.mesh.facet_tag_ids(sl.slave_region)
-        for d in self.displacements:
-            if d.body not in names:
-                raise InputError("displacement.body", f"unknown body {d.body!r}; bodies: {names}")
+        for d in (*self.displacements, *self.tractions, *self.self_contacts):
+            known(f"{type(d).__name__.lower()}.body", d.body)
             self.mesh.facet_tag_ids(d.region)
-        for tr in self.tractions:
-            if tr.body not in names:
-                raise InputError("traction.body", f"unknown body {tr.body!r}; bodies: {names}")
-            self.mesh.facet_tag_ids(tr.region)
         tools = [t.name for t in self.tools]
         if len(set(tools)) != len(tools):
             raise InputError("scene.tools", f"tool names must be unique, got {tools}")
         for c in self.contacts:
-            if c.body not in names:
-                raise InputError("contact.body", f"unknown body {c.body!r}; bodies: {names}")
+            known("contact.body", c.body)
             if c.tool not in tools:
                 raise InputError("contact.tool", f"unknown tool {c.tool!r}; tools: {tools}")
             self.mesh.facet_tag_ids(c.region)
         if self.stabilisation is not None:
             for who in self.stabilisation.bodies:
-                if who not in names:
-                    raise InputError("stabilisation.bodies", f"unknown body {who!r}; bodies: "
-                                     f"{names}")
+                known("stabilisation.bodies", who)
 
     def tool(self, name: str) -> Tool:
         """The tool called ``name``."""

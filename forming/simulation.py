@@ -204,7 +204,7 @@ class Simulation:
         solver.restore(state[1])
         if (sig := signals.requested_anywhere(self.comm)) is not None:
             return self._interrupt(sig, res)
-        if not solver.retries_on_failure:
+        if not solver.retries_on_failure or res.final:
             return self._fail(f"at {self.progress.where(t_old)} (load parameter {t_old:.6g}):"
                               f" {res.reason}", res)
         log.warning("step to %s (t=%.5f) failed after %d %s: %s; cutting back",

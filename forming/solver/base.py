@@ -29,6 +29,8 @@ class StepResult:
         reason: Why the step failed (or the solver's convergence reason).
         seconds: Wall time of the step.
         augmentations: Multiplier updates of the contact constraints (Uzawa passes).
+        final: The step failed in a way a smaller step cannot cure: the run stops at
+            the last converged state.
     """
 
     converged: bool
@@ -37,6 +39,7 @@ class StepResult:
     reason: str = ""
     seconds: float = 0.0
     augmentations: int = 0
+    final: bool = False
 
     @property
     def residual(self) -> float:

@@ -34,6 +34,7 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat, signals  # noqa: F401
+from forming.contact.selfcontact import SelfContactTerm
 from forming.errors import InputError, KernelFailure
 from forming.model import Model
 from forming.solver.base import StepResult
@@ -97,6 +98,9 @@ class ExplicitSolver:
         self._outside = [OutsideForms(sl, model.layout, [by_name[b] for b in sl.bodies])
                          for sl in model.sliding]
         self._sides += [part for o in self._outside for part in o.parts]
+        # surfaces in contact with themselves (folding walls): penalty at every increment
+        self._sides += [SelfContactTerm(by_name[sc.spec.body], sc, lambda: self.dt)
+                        for sc in model.self_contacts]
         self._terms = [*self._sides, *self._loads]  # assembled from forms (or split)
         # what the solver commits itself at every increment (not through the model)
         self._own = {id(loop.body) for loop in self._loop_list}
@@ -117,6 +121,7 @@ class ExplicitSolver:
         self._tau_start = 0.0
         self._old = [(np.zeros(st.body.u.x.array.size), np.zeros(st.n_owned),
                       np.zeros(st.n_owned), np.zeros(st.v.size)) for st in self.states]
+        self.dt = math.inf  # no time step yet: a self-contact's penalty is 0 at rest
         self._assemble_forces()  # forces at rest (e.g. a preload) give a_0
         self.dt = self._dt_ref = self._bound.time_step()
         self._omega2_ref = self._omega2_now = self._omega2()
@@ -405,8 +410,12 @@ class ExplicitSolver:
 
     def history_columns(self, result: StepResult) -> dict[str, float]:
         """Time increments of the interval, time, time step and the energy ledger [N mm]."""
-        return {"time_increments": result.work, "time_s": self.tau, "time_step_s": self.dt,
-                **self.ledger.columns()}
+        out = {"time_increments": result.work, "time_s": self.tau, "time_step_s": self.dt,
+               **self.ledger.columns()}
+        for sc in self.model.self_contacts:  # at the last increment
+            out[f"self_contact_{sc.spec.body}_pairs"] = float(sc.pairs)
+            out[f"self_contact_{sc.spec.body}_penetration_mm"] = sc.penetration
+        return out
 
     def metrics(self) -> dict[str, float | bool]:
         """Figures every explicit run reports (``summary.json`` metrics)."""
@@ -417,7 +426,9 @@ class ExplicitSolver:
             "hourglass_energy_fraction": led.hg_ie_max,
             "mass_added_fraction": self.mass_added_fraction,
             "energy_balance_error_rel": led.balance_error(),
-        }
+        } | ({"self_contact_penetration_max_mm": max(sc.deepest for sc in
+                                                     self.model.self_contacts)}
+             if self.model.self_contacts else {})
 
     def timing(self) -> dict[str, float]:
         """Figures for ``summary.json`` timing.

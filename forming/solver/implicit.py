@@ -307,10 +307,13 @@ class ImplicitSolver:
                                  f"{self.options.max_augmentations} augmentations")
         for b in self._bodies:
             b.invalidate()
+        final = False
+        if ok and (met := self.model.surfaces_meet()) is not None:
+            ok, reason, final = False, met, True
         self._work_total += iterations
         self._last_work = iterations
         return StepResult(ok, iterations, list(self._residuals), reason,
-                          time.perf_counter() - t0, self._updates)
+                          time.perf_counter() - t0, self._updates, final)
 
     def accept(self, force_scale: float) -> None:
         """Keep what the next step needs.

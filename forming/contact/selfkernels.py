@@ -1,0 +1,287 @@
+"""Compiled search and forces of a surface in contact with itself (folding cell walls).
+
+The surface is a set of triangles over surface nodes (:mod:`.selfcontact` builds it from
+a body's boundary faces); every surface node is a slave of every triangle that is not
+on a cell the node belongs to (the walls' own faces are never their own obstacle). A
+node has penetrated a triangle when its distance to the triangle's plane along the
+outward normal is negative but shallower than the search depth, and its projection
+falls inside the triangle: deeper points are taken to be the other side of the node's
+own wall, which is at least a wall thickness behind it.
+
+The triangles are binned by centroid on a uniform grid whose spacing is the largest
+centroid-to-vertex distance plus the reach, so a node finds every triangle it can touch
+in the 27 cells around its own; the candidates found (a Verlet list) serve until some
+node has moved half the reach beyond the search depth.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+_BARY_SLACK = 1e-9  # barycentric slack of a projection inside a triangle
+_LATERAL = 0.5  # lateral reach beyond a triangle's edges, a fraction of the search depth
+
+
+@numba.njit(cache=True)
+def bin_triangles(x, tris, depth):
+    """Bin the triangles by centroid on a uniform grid.
+
+    Args:
+        x: (n, 3) current node coordinates [mm].
+        tris: (n_t, 3) node indices of the triangles.
+        depth: Search depth [mm].
+
+    Returns:
+        (lower corner (3,), spacing, cells per axis (3,), triangle order (n_t,), start
+        of each grid cell's run in that order (n_cells + 1,)).
+    """
+    n_t = tris.shape[0]
+    cen = np.zeros((n_t, 3))
+    reach = 0.0
+    for t in range(n_t):
+        for k in range(3):
+            cen[t, k] = (x[tris[t, 0], k] + x[tris[t, 1], k] + x[tris[t, 2], k]) / 3.0
+        for a in range(3):
+            d2 = 0.0
+            for k in range(3):
+                d2 += (x[tris[t, a], k] - cen[t, k]) ** 2
+            reach = max(reach, np.sqrt(d2))
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for k in range(3):
+        lo[k] = x[:, k].min() - 1e-9
+        hi[k] = x[:, k].max() + 1e-9
+    h = reach + depth + 1e-12
+    h = max(h, (hi - lo).max() / 256.0)  # at most 256 cells per axis
+    dims = np.empty(3, dtype=np.int64)
+    for k in range(3):
+        dims[k] = int((hi[k] - lo[k]) / h) + 1
+    keys = np.empty(n_t, dtype=np.int64)
+    for t in range(n_t):
+        i = min(int((cen[t, 0] - lo[0]) / h), dims[0] - 1)
+        j = min(int((cen[t, 1] - lo[1]) / h), dims[1] - 1)
+        m = min(int((cen[t, 2] - lo[2]) / h), dims[2] - 1)
+        keys[t] = i + dims[0] * (j + dims[1] * m)
+    order = np.argsort(keys)
+    start = np.zeros(dims[0] * dims[1] * dims[2] + 1, dtype=np.int64)
+    for t in range(n_t):
+        start[keys[t] + 1] += 1
+    for c in range(start.shape[0] - 1):
+        start[c + 1] += start[c]
+    return lo, h, dims, order, start
+
+
+@numba.njit(cache=True, inline="always")
+def _clamp(la, lb, lc):
+    """Barycentric coordinates moved onto the triangle (an approximate nearest point)."""
+    la, lb, lc = max(la, 0.0), max(lb, 0.0), max(lc, 0.0)
+    total = la + lb + lc
+    return la / total, lb / total, lc / total
+
+
+@numba.njit(cache=True, inline="always")
+def _excluded(s, t, tris, tri_cell, ptr, cells):
+    """Whether triangle ``t`` holds node ``s`` or lies on a cell node ``s`` belongs to."""
+    if tris[t, 0] == s or tris[t, 1] == s or tris[t, 2] == s:
+        return True
+    for c in range(ptr[s], ptr[s + 1]):
+        if cells[c] == tri_cell[t]:
+            return True
+    return False
+
+
+@numba.njit(cache=True)
+def candidates(x, tris, tri_cell, ptr, cells, slaves, reach):
+    """The triangles each slave may touch before it moves ``reach`` less the search depth.
+
+    A Verlet list: every triangle not excluded (:func:`_excluded`) whose centroid lies
+    within ``reach`` plus the triangle's own size of the slave.
+
+    Args:
+        x: (n, 3) current node coordinates [mm].
+        tris: (n_t, 3) triangles.
+        tri_cell: (n_t,) global cell of each triangle.
+        ptr: (n + 1,) offsets into ``cells`` per node.
+        cells: Global indices of the cells each node belongs to.
+        slaves: Indices of the nodes to test.
+        reach: Search depth plus the motion the list must survive [mm].
+
+    Returns:
+        (offsets (n_s + 1,), triangle indices) per slave.
+    """
+    lo, h, dims, order, start = bin_triangles(x, tris, reach)
+    n_s = slaves.shape[0]
+    count = np.zeros(n_s + 1, dtype=np.int64)
+    found = []
+    for i in range(n_s):
+        s = slaves[i]
+        ci = min(int((x[s, 0] - lo[0]) / h), dims[0] - 1)
+        cj = min(int((x[s, 1] - lo[1]) / h), dims[1] - 1)
+        ck = min(int((x[s, 2] - lo[2]) / h), dims[2] - 1)
+        for a in range(max(ci - 1, 0), min(ci + 2, dims[0])):
+            for b in range(max(cj - 1, 0), min(cj + 2, dims[1])):
+                for c in range(max(ck - 1, 0), min(ck + 2, dims[2])):
+                    key = a + dims[0] * (b + dims[1] * c)
+                    for r in range(start[key], start[key + 1]):
+                        t = order[r]
+                        if _excluded(s, t, tris, tri_cell, ptr, cells):
+                            continue
+                        # the slave within reach of the triangle's bounding sphere
+                        d2 = 0.0
+                        size2 = 0.0
+                        for k in range(3):
+                            cen = (x[tris[t, 0], k] + x[tris[t, 1], k] + x[tris[t, 2], k]) / 3
+                            d2 += (x[s, k] - cen) ** 2
+                        for v in range(3):
+                            e2 = 0.0
+                            for k in range(3):
+                                cen = (x[tris[t, 0], k] + x[tris[t, 1], k]
+                                       + x[tris[t, 2], k]) / 3
+                                e2 += (x[tris[t, v], k] - cen) ** 2
+                            size2 = max(size2, e2)
+                        if np.sqrt(d2) <= np.sqrt(size2) + reach:
+                            found.append(t)
+                            count[i + 1] += 1
+    for i in range(n_s):
+        count[i + 1] += count[i]
+    out = np.empty(len(found), dtype=np.int64)
+    for j in range(len(found)):
+        out[j] = found[j]
+    return count, out
+
+
+@numba.njit(cache=True)
+def penetrations(x, tris, slaves, offsets, cand, depth, both_sides):
+    """The deepest candidate triangle each slave node has penetrated.
+
+    Args:
+        x: (n, 3) current node coordinates [mm].
+        tris: (n_t, 3) triangles, outward normal by the right-hand rule.
+        slaves: Indices of the nodes to test.
+        offsets: (n_s + 1,) offsets into ``cand`` per slave (:func:`candidates`).
+        cand: Candidate triangles.
+        depth: Search depth [mm].
+        both_sides: Also report nodes within ``depth`` in front of a triangle (the
+            proximity check of solvers that do not enforce the contact).
+
+    Returns:
+        (triangle or -1, signed distance [mm], barycentric coordinates (n_s, 3), unit
+        normal (n_s, 3)) per slave.
+    """
+    n_s = slaves.shape[0]
+    hit = np.full(n_s, -1, dtype=np.int64)
+    dist = np.zeros(n_s)
+    bary = np.zeros((n_s, 3))
+    normal = np.zeros((n_s, 3))
+    for i in range(n_s):
+        s = slaves[i]
+        p0, p1, p2 = x[s, 0], x[s, 1], x[s, 2]
+        best = depth
+        for r in range(offsets[i], offsets[i + 1]):
+            t = cand[r]
+            n0, n1, n2 = tris[t, 0], tris[t, 1], tris[t, 2]
+            e10 = x[n1, 0] - x[n0, 0]
+            e11 = x[n1, 1] - x[n0, 1]
+            e12 = x[n1, 2] - x[n0, 2]
+            e20 = x[n2, 0] - x[n0, 0]
+            e21 = x[n2, 1] - x[n0, 1]
+            e22 = x[n2, 2] - x[n0, 2]
+            m0 = e11 * e22 - e12 * e21
+            m1 = e12 * e20 - e10 * e22
+            m2 = e10 * e21 - e11 * e20
+            size = np.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+            if size == 0.0:
+                continue
+            m0, m1, m2 = m0 / size, m1 / size, m2 / size
+            w0, w1, w2 = p0 - x[n0, 0], p1 - x[n0, 1], p2 - x[n0, 2]
+            d = w0 * m0 + w1 * m1 + w2 * m2
+            if not (-depth < d < (depth if both_sides else 0.0)):
+                continue
+            if abs(d) >= best:
+                continue
+            # barycentric coordinates of the projection
+            q0, q1, q2 = w0 - d * m0, w1 - d * m1, w2 - d * m2
+            d00 = e10 * e10 + e11 * e11 + e12 * e12
+            d01 = e10 * e20 + e11 * e21 + e12 * e22
+            d11 = e20 * e20 + e21 * e21 + e22 * e22
+            d20 = q0 * e10 + q1 * e11 + q2 * e12
+            d21 = q0 * e20 + q1 * e21 + q2 * e22
+            den = d00 * d11 - d01 * d01
+            lb = (d11 * d20 - d01 * d21) / den
+            lc = (d00 * d21 - d01 * d20) / den
+            la = 1.0 - lb - lc
+            if min(la, lb, lc) < -_BARY_SLACK:
+                # outside: the nearest point of the triangle, if the node lies within the
+                # lateral reach of it (a vertex or an edge of a warped face, where no
+                # triangle holds the projection)
+                la, lb, lc = _clamp(la, lb, lc)
+                o0 = q0 - (lb * e10 + lc * e20)
+                o1 = q1 - (lb * e11 + lc * e21)
+                o2 = q2 - (lb * e12 + lc * e22)
+                if o0 * o0 + o1 * o1 + o2 * o2 > (_LATERAL * depth) ** 2:
+                    continue
+            best = abs(d)
+            hit[i] = t
+            dist[i] = d
+            bary[i, 0], bary[i, 1], bary[i, 2] = la, lb, lc
+            normal[i, 0], normal[i, 1], normal[i, 2] = m0, m1, m2
+    return hit, dist, bary, normal
+
+
+@numba.njit(cache=True)
+def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, scale, damping, dt, r):
+    """Add the penalty forces of the penetrated slaves to the residual ``r``.
+
+    The penalty of a pair is ``k = scale m / dt^2``, ``m`` the pair's reduced mass
+    (``1/m = 1/m_s + sum_a lambda_a^2 / m_a``, the mass its normal motion moves): the
+    soft-constraint penalty of explicit codes, which cannot shorten the stable time step
+    for ``scale`` well below 1. A viscous force
+    ``c w``, ``c = 2 damping sqrt(k m)``, on the normal approach velocity ``w`` damps the
+    pair's ringing (contact damping); the normal force never pulls.
+
+    Args:
+        slaves: Slave node indices.
+        hit: Their triangle or -1 (:func:`penetrations`).
+        dist: Signed distances [mm].
+        bary: Barycentric coordinates of the projections.
+        normal: Unit outward normals of the triangles.
+        tris: (n_t, 3) triangles.
+        mass: (n,) lumped nodal masses [t].
+        vel: (n, 3) nodal velocities [mm/s].
+        scale: Penalty over ``m / dt^2``.
+        damping: Fraction of the pair's critical damping.
+        dt: Time step [s].
+        r: (n, 3) residual (internal minus external forces), added to.
+
+    Returns:
+        (pairs in contact, stored penalty energy [N mm], deepest penetration [mm]).
+    """
+    count = 0
+    energy = 0.0
+    deepest = 0.0
+    for i in range(slaves.shape[0]):
+        t = hit[i]
+        if t < 0 or dist[i] >= 0.0:
+            continue
+        s = slaves[i]
+        inv = 1.0 / mass[s]  # the pair's reduced mass along the normal
+        for a in range(3):
+            inv += bary[i, a] ** 2 / mass[tris[t, a]]
+        m = 1.0 / inv
+        k = scale * m / (dt * dt)
+        w = 0.0  # approach velocity: the slave's along -n relative to the face's point
+        for c in range(3):
+            rel = vel[s, c]
+            for a in range(3):
+                rel -= bary[i, a] * vel[tris[t, a], c]
+            w -= rel * normal[i, c]
+        fn = max(-k * dist[i] + 2.0 * damping * np.sqrt(k * m) * w, 0.0)
+        for c in range(3):
+            r[s, c] -= fn * normal[i, c]
+            for a in range(3):
+                r[tris[t, a], c] += bary[i, a] * fn * normal[i, c]
+        energy += 0.5 * k * dist[i] * dist[i]
+        deepest = max(deepest, -dist[i])
+        count += 1
+    return count, energy, deepest

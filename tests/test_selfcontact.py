@@ -1,0 +1,128 @@
+"""Self-contact of a body's surface (folding cell walls, issue 20): two blocks of one body.
+
+One body made of two blocks, a gap ``g`` apart; the upper one is pushed down onto the
+lower one. The blocks share no cell, so the only thing between them is the self-contact.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import run_mpi
+
+from forming.errors import InputError
+from forming.job import Job
+from forming.materials import ElasticSolid, IsotropicElasticity
+from forming.mesh import Block, MeshData, blocks
+from forming.run import simulate
+from forming.scene import Body, Displacement, Linear, Scene, SelfContact
+from forming.solver.options import ExplicitOptions
+from forming.solver.stepping import StepControl
+
+E, RHO = 100.0, 1e-9  # MPa, t/mm^3
+SIDE, HEIGHT, GAP, PUSH = 2.0, 2.0, 0.05, 0.1  # mm (strains below 1%: linear)
+
+
+def _two_blocks(degree_cells: int = 2) -> MeshData:
+    """Two 2 x 2 x 2 mm blocks, one above the other, ``GAP`` apart; the faces that meet
+    form the group ``touching``."""
+    from dolfinx import mesh as dmesh  # after forming (run as a script under mpirun)
+
+    n = (degree_cells,) * 3
+    md = blocks([Block("lower", (SIDE, SIDE, HEIGHT), n),
+                 Block("upper", (SIDE, SIDE, HEIGHT), n, origin=(0.0, 0.0, HEIGHT + GAP))])
+    tags = md.facet_tags
+    values = tags.values.copy()
+    for name in ("lower_top", "upper_bottom"):
+        values[np.isin(tags.indices, md.facets(name))] = 99
+    facet_tags = dmesh.meshtags(md.mesh, 2, tags.indices, values)
+    return MeshData(md.mesh, md.cell_tags, facet_tags, md.names | {"touching": (2, 99)})
+
+
+def _scene(md: MeshData, degree: int = 1, **self_contact) -> Scene:
+    solid = ElasticSolid(IsotropicElasticity(E=E, nu=0.0), density=RHO)
+    return Scene("blocks", md, (Body("blocks", solid, degree=degree),), displacements=(
+        Displacement("blocks", "lower_bottom", x=0.0, y=0.0, z=0.0),
+        Displacement("blocks", "upper_top", x=0.0, y=0.0, z=Linear(-PUSH))),
+        self_contacts=(SelfContact("blocks", "touching", **self_contact),))
+
+
+def _explicit_job(degree: int) -> Job:
+    return Job(_scene(_two_blocks(), degree), steps=StepControl(initial=0.05, max=0.05,
+                                                                min=0.05),
+               solver="explicit", explicit=ExplicitOptions(loading_time=2e-3))
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_blocks_pushed_together_carry_the_series_force(tmp_path, degree):
+    """Once the gap closes, the blocks are two bars in series, compressed by what the
+    penalty leaves of the push: the force is E A (push - gap - penetration) / (2 H)
+    (nu = 0: uniaxial stress). Explicit, quasi-static loading; linear hexahedra (faces
+    split in two triangles) and quadratic ones (in eight around the face's centre node,
+    as the meso walls).
+
+    A force off by more than 2% would mean the contact force is not what compresses the
+    blocks (a wrong sign or a lost pair); a penetration above a tenth of an element, a
+    penalty far softer than the elements.
+    """
+    s = simulate(_explicit_job(degree), tmp_path, "blocks", {})
+    assert s["status"] == "completed", s["reason"]
+    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    force = -h["reaction_upper_top_z_N"][-1]
+    penetration = h["self_contact_blocks_penetration_mm"][-1]
+    expected = E * SIDE**2 * (PUSH - GAP - penetration) / (2 * HEIGHT)
+    assert force == pytest.approx(expected, rel=0.02)
+    assert s["metrics"]["self_contact_penetration_max_mm"] < 0.1 * HEIGHT / 2
+    assert s["metrics"]["energy_balance_error_rel"] < 0.01
+
+
+def test_implicit_run_stops_where_the_surface_meets_itself(tmp_path):
+    """The implicit solver does not enforce self-contact: the run must stop, at the
+    last state before the gap closes, saying so (not let the blocks pass through).
+
+    A run that completes would mean interpenetration went unnoticed.
+    """
+    job = Job(_scene(_two_blocks()), steps=StepControl(initial=0.05, max=0.05, min=1e-3))
+    s = simulate(job, tmp_path, "blocks", {})
+    assert s["status"] == "failed"
+    assert "self-contact is enforced by the explicit solver only" in s["reason"]
+    closed = GAP / PUSH  # load parameter at which the gap closes
+    assert closed - 0.05 - 1e-9 <= s["load_parameter_reached"] < closed
+
+
+@pytest.mark.parametrize("field,value", [("depth", -1.0), ("stiffness", 2.0),
+                                         ("stiffness", 0.0)])
+def test_bad_self_contact_settings_name_the_field(field, value):
+    """A negative search depth or a penalty fraction outside (0, 1] is refused by name."""
+    with pytest.raises(InputError, match=f"self_contact.{field}"):
+        SelfContact("blocks", "touching", **{field: value})
+
+
+@pytest.mark.mpi
+def test_two_ranks_give_the_serial_forces(tmp_path):
+    """The quadratic blocks on 2 ranks: the partition cuts the contact surface, whose
+    nodes, triangles and forces then live on both ranks (gathered positions, summed
+    forces). The same increments add the same forces in another order: the reaction
+    history agrees to 1e-9 of the largest force. A larger difference means a pair found
+    twice or missed across the partition.
+    """
+    serial = simulate(_explicit_job(2), tmp_path / "serial", "blocks", {})
+    proc = run_mpi([__file__, str(tmp_path / "parallel")], timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    parallel = json.loads((tmp_path / "parallel" / "summary.json").read_text())
+    assert serial["status"] == parallel["status"] == "completed" and parallel["ranks"] == 2
+
+    def force(path: Path) -> np.ndarray:
+        h = np.genfromtxt(path / "history.csv", delimiter=",", names=True)
+        return h["reaction_upper_top_z_N"]
+
+    a, b = force(tmp_path / "serial"), force(tmp_path / "parallel")
+    np.testing.assert_allclose(b, a, rtol=0, atol=1e-9 * np.max(np.abs(a)))
+
+
+if __name__ == "__main__":  # the 2-rank run of the test above
+    simulate(_explicit_job(2), Path(sys.argv[1]), "blocks", {})
