@@ -1,7 +1,8 @@
 """Augmented-Lagrangian frictional contact of a body's surface with a rigid tool.
 
-Nodal contact: the terms are integrated with the vertex rule, so gaps, pressures and
-tangential tractions live at the surface nodes, held in P1 multiplier functions
+Nodal contact: the terms are integrated with the vertex rule (a quadratic body's faces:
+the Gauss-Lobatto rule at their nodes), so gaps, pressures and tangential tractions live
+at the surface nodes, held in multiplier functions of the body's degree
 (``lambda_N``, and ``lambda_T`` when the pair has friction). Within a Newton solve the
 multipliers are fixed; between solves (Uzawa) they are set to the tractions the
 solution produced, until the constraint violation is below the tolerance. See
@@ -73,15 +74,23 @@ class ContactTerm:
         self.friction = spec.friction
         # elastic slip of the penalty stick law (None: augmented stick constraint)
         self.elastic_slip = 0.005 * h if spec.stick == "elastic_slip" else None
-        self._ds = body.domain.ds(spec.region, quadrature_rule="vertex", quadrature_degree=1)
-        W = fem.functionspace(msh, ("Lagrange", 1))
+        # nodal integration: the vertex rule on linear faces; on quadratic ones the
+        # Gauss-Lobatto rule whose points are the face's 9 nodes (Simpson weights, all
+        # positive): every node of the face carries its share, not only the corners
+        # (corner-only contact leaves a quadratic face's other nodes free, 6 times too
+        # compliant: tests/test_explicit.py)
+        degree = body.spec.degree if self._track is None else 1
+        self._ds = (body.domain.ds(spec.region, quadrature_rule="vertex", quadrature_degree=1)
+                    if degree == 1 else
+                    body.domain.ds(spec.region, quadrature_rule="GLL", quadrature_degree=3))
+        W = fem.functionspace(msh, ("Lagrange", degree))
         self.lam_n = fem.Function(W, name=f"pressure_{tool.name}")
         self._offset = fem.Constant(parent, np.zeros(3))
         self._eps = fem.Constant(parent, self.penalty)
         self.lam_t = None
         Wv = None
         if self.friction > 0.0:  # a frictionless pair compiles no tangential terms
-            Wv = fem.functionspace(msh, ("Lagrange", 1, (3,)))
+            Wv = fem.functionspace(msh, ("Lagrange", degree, (3,)))
             self.lam_t = fem.Function(Wv, name=f"shear_{tool.name}")
             self.u_prev = fem.Function(body.V)
             self._offset_prev = fem.Constant(parent, np.zeros(3))
@@ -258,14 +267,18 @@ class ContactTerm:
         area = fem.Function(V)
         assembled(self.body.domain.form(ufl.dot(ufl.as_vector([1.0, 1.0, 1.0]), w) * self._ds),
                   area)
+        # the nodes the rule integrates at (a tracked tool on a quadratic body: corners)
+        nodes = nodes[area.x.array[3 * nodes] > 0.0]
         nc = NodalContact(self.tool.shape, nodes, V.tabulate_dof_coordinates()[nodes],
                           area.x.array[3 * nodes], self.penalty, self.friction,
                           self.elastic_slip)
         if self.lam_t is not None:  # blocks of the shear function at the nodes
             Wv = self.lam_t.function_space
-            blocks = np.empty(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts,
-                              dtype=np.int64)
-            blocks[V.dofmap.list] = Wv.dofmap.list
+            blocks = np.full(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts, -1,
+                             dtype=np.int64)
+            # the shear's nodes: all of the body's, or its vertices (the first dofs of a
+            # cell in either space)
+            blocks[V.dofmap.list[:, : Wv.dofmap.list.shape[1]]] = Wv.dofmap.list
             self._shear_blocks = blocks[nodes]
         self.pull_nodal(nc)
         return nc
