@@ -36,11 +36,13 @@ is spent is eroded (``erosion``), as the paper's explicit code deletes failed el
 ``fracture=false`` keeps the walls elastic (``max_wall_strain`` then says where they
 would have torn).
 
-Limits of this meso model (issue 20, in progress): walls do not touch each other (no
-self-contact: the run is only meaningful before folds meet, well short of
-densification), and on the default meshes the implicit run stops some way past the peak
-(docs/validation.md, "fracturing cell walls", says where); the infill does not fracture
-(Table 3: 0.010) nor the flanges (0.067).
+Walls that fold onto each other touch (``self_contact``, the default; docs/theory.md
+§15): the explicit solver enforces the contact by penalty; an implicit run stops at the
+first step in which a wall node is behind another wall's face, and says so.
+
+Limits of this meso model (issue 20, in progress): on the default meshes the implicit
+run stops some way past the peak (docs/validation.md, "fracturing cell walls", says
+where); the infill does not fracture (Table 3: 0.010) nor the flanges (0.067).
 
 Accuracy of the defaults: not yet studied (the wall tests give 1% in bending and 2.3%
 in buckling at their mesh sizes).

@@ -33,6 +33,7 @@ from forming.contact.selfkernels import candidates, penalty_residual, penetratio
 from forming.errors import InputError
 from forming.scene_contact import SelfContact
 
+ONSET = 0.1  # deepest start of a contact, a fraction of the search depth
 _HEX_EDGES = np.array(basix.topology(basix.CellType.hexahedron)[1])
 
 
@@ -90,6 +91,8 @@ class SurfaceSelfContact:
         self._x_list: np.ndarray | None = None  # positions the candidate list was built at
         self._list = (np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64))
         self.searches = 0  # candidate lists built
+        self.touching = np.zeros(self.own_rows.size, dtype=bool)  # at the last evaluation
+        self._live = np.ones(self.n, dtype=bool)  # nodes the candidate list follows
         self.deepest = 0.0  # deepest penetration of the run so far [mm]
 
     @staticmethod
@@ -163,14 +166,45 @@ class SurfaceSelfContact:
         The list holds the triangles within twice the search depth; it is rebuilt once
         any surface node has moved half the depth since it was built (collective).
         """
-        moved = (np.inf if self._x_list is None
-                 else float(np.max(np.abs(x - self._x_list), initial=0.0)))
+        moved = (np.inf if self._x_list is None else float(np.max(
+            np.abs(x[self._live] - self._x_list[self._live]), initial=0.0)))
         if moved > 0.5 * self.depth:
+            tri_dead, node_dead = self._dead()
             self._list = candidates(x, self.tris, self.tri_cell, self.ptr, self.cells,
-                                    self.own_rows, 2.0 * self.depth)
+                                    self.own_rows, 2.0 * self.depth, tri_dead, node_dead)
+            self._live = ~node_dead  # what the list must follow (not the eroded fragments)
             self._x_list = x.copy()
             self.searches += 1
-        return penetrations(x, self.tris, self.own_rows, *self._list, self.depth, False)
+        out = penetrations(x, self.tris, self.own_rows, *self._list, self.depth, False,
+                           self.touching, ONSET * self.depth)
+        self.touching = out[0] >= 0
+        return out
+
+    def _dead(self) -> tuple[np.ndarray, np.ndarray]:
+        """Triangles on eroded cells, and nodes of eroded cells only (collective).
+
+        An eroded cell (every point of a fracturing body's cell spent) carries no stress
+        and is no obstacle: as the explicit codes delete failed elements, its faces and
+        the nodes it alone holds leave the contact.
+        """
+        body = self.body
+        tri_dead = np.zeros(len(self.tris), dtype=bool)
+        node_dead = np.zeros(self.n, dtype=bool)
+        if not getattr(body, "damaging", False):
+            return tri_dead, node_dead
+        cells = body.point_cells
+        active = body.active_points().reshape(len(cells), -1).any(axis=1)
+        cmap = body.mesh.topology.index_map(body.mesh.topology.dim)
+        dead = cmap.local_to_global(cells[~active].astype(np.int32)).astype(np.int64)
+        if self.comm.size > 1:
+            dead = np.concatenate(self.comm.allgather(dead))
+        if dead.size == 0:
+            return tri_dead, node_dead
+        tri_dead = np.isin(self.tri_cell, dead)
+        cell_dead = np.isin(self.cells, dead)
+        alive = np.add.reduceat(~cell_dead, self.ptr[:-1]) if self.cells.size else 0
+        node_dead = (alive == 0) & (np.diff(self.ptr) > 0)
+        return tri_dead, node_dead
 
     def set_masses(self, m: np.ndarray) -> None:
         """Take the lumped masses of the body's nodes (3 per node; after mass scaling)."""
@@ -218,9 +252,9 @@ class SurfaceSelfContact:
         """
         x = self.positions(u)
         listed = candidates(x, self.tris, self.tri_cell, self.ptr, self.cells,
-                            self.own_rows, self.depth)
+                            self.own_rows, self.depth, *self._dead())
         hit, dist, _b, _n = penetrations(x, self.tris, self.own_rows, *listed, self.depth,
-                                         False)
+                                         False, self.touching, self.depth)
         inside = hit >= 0
         count = self.comm.allreduce(int(inside.sum()), op=MPI.SUM)
         deepest = self.comm.allreduce(float(dist[inside].min(initial=0.0)), op=MPI.MIN)
@@ -293,3 +327,13 @@ class SelfContactTerm:
     def r_new(self) -> np.ndarray:
         """The term's owned entries as last evaluated."""
         return self.vec.x.array[: self.state.n_owned]
+
+    def touching_vector(self) -> np.ndarray:
+        """Which surface nodes touch, as an array of the body's vector (a snapshot)."""
+        out = np.zeros_like(self.vec.x.array)
+        out.reshape(-1, 3)[self.surface.own_blocks, 0] = self.surface.touching
+        return out
+
+    def set_touching_vector(self, arr: np.ndarray) -> None:
+        """Return which nodes touch to a snapshot's."""
+        self.surface.touching = arr.reshape(-1, 3)[self.surface.own_blocks, 0] > 0.5

@@ -47,11 +47,13 @@ def bin_triangles(x, tris, depth):
             for k in range(3):
                 d2 += (x[tris[t, a], k] - cen[t, k]) ** 2
             reach = max(reach, np.sqrt(d2))
-    lo = np.empty(3)
-    hi = np.empty(3)
-    for k in range(3):
-        lo[k] = x[:, k].min() - 1e-9
-        hi[k] = x[:, k].max() + 1e-9
+    lo = np.full(3, np.inf)  # the triangles' box (a node far outside it meets none)
+    hi = np.full(3, -np.inf)
+    for t in range(n_t):
+        for a in range(3):
+            for k in range(3):
+                lo[k] = min(lo[k], x[tris[t, a], k] - 1e-9)
+                hi[k] = max(hi[k], x[tris[t, a], k] + 1e-9)
     h = reach + depth + 1e-12
     h = max(h, (hi - lo).max() / 256.0)  # at most 256 cells per axis
     dims = np.empty(3, dtype=np.int64)
@@ -70,6 +72,12 @@ def bin_triangles(x, tris, depth):
     for c in range(start.shape[0] - 1):
         start[c + 1] += start[c]
     return lo, h, dims, order, start
+
+
+@numba.njit(cache=True, inline="always")
+def _cell(p, lo, h, n):
+    """Grid cell of coordinate ``p`` along one axis, clamped to the grid."""
+    return min(max(int((p - lo) / h), 0), n - 1)
 
 
 @numba.njit(cache=True, inline="always")
@@ -92,7 +100,7 @@ def _excluded(s, t, tris, tri_cell, ptr, cells):
 
 
 @numba.njit(cache=True)
-def candidates(x, tris, tri_cell, ptr, cells, slaves, reach):
+def candidates(x, tris, tri_cell, ptr, cells, slaves, reach, tri_dead, node_dead):
     """The triangles each slave may touch before it moves ``reach`` less the search depth.
 
     A Verlet list: every triangle not excluded (:func:`_excluded`) whose centroid lies
@@ -106,25 +114,32 @@ def candidates(x, tris, tri_cell, ptr, cells, slaves, reach):
         cells: Global indices of the cells each node belongs to.
         slaves: Indices of the nodes to test.
         reach: Search depth plus the motion the list must survive [mm].
+        tri_dead: (n_t,) triangles on eroded cells (left out).
+        node_dead: (n,) nodes of eroded cells only (left out).
 
     Returns:
         (offsets (n_s + 1,), triangle indices) per slave.
     """
-    lo, h, dims, order, start = bin_triangles(x, tris, reach)
     n_s = slaves.shape[0]
     count = np.zeros(n_s + 1, dtype=np.int64)
+    live = np.flatnonzero(~tri_dead)
+    if live.size == 0:
+        return count, np.zeros(0, dtype=np.int64)
+    lo, h, dims, order, start = bin_triangles(x, tris[live], reach)
     found = []
     for i in range(n_s):
         s = slaves[i]
-        ci = min(int((x[s, 0] - lo[0]) / h), dims[0] - 1)
-        cj = min(int((x[s, 1] - lo[1]) / h), dims[1] - 1)
-        ck = min(int((x[s, 2] - lo[2]) / h), dims[2] - 1)
+        if node_dead[s]:
+            continue
+        ci = _cell(x[s, 0], lo[0], h, dims[0])
+        cj = _cell(x[s, 1], lo[1], h, dims[1])
+        ck = _cell(x[s, 2], lo[2], h, dims[2])
         for a in range(max(ci - 1, 0), min(ci + 2, dims[0])):
             for b in range(max(cj - 1, 0), min(cj + 2, dims[1])):
                 for c in range(max(ck - 1, 0), min(ck + 2, dims[2])):
                     key = a + dims[0] * (b + dims[1] * c)
                     for r in range(start[key], start[key + 1]):
-                        t = order[r]
+                        t = live[order[r]]
                         if _excluded(s, t, tris, tri_cell, ptr, cells):
                             continue
                         # the slave within reach of the triangle's bounding sphere
@@ -152,7 +167,7 @@ def candidates(x, tris, tri_cell, ptr, cells, slaves, reach):
 
 
 @numba.njit(cache=True)
-def penetrations(x, tris, slaves, offsets, cand, depth, both_sides):
+def penetrations(x, tris, slaves, offsets, cand, depth, both_sides, touching, onset):
     """The deepest candidate triangle each slave node has penetrated.
 
     Args:
@@ -164,6 +179,10 @@ def penetrations(x, tris, slaves, offsets, cand, depth, both_sides):
         depth: Search depth [mm].
         both_sides: Also report nodes within ``depth`` in front of a triangle (the
             proximity check of solvers that do not enforce the contact).
+        touching: (n_s,) whether each slave was in contact at the last evaluation.
+        onset: Deepest penetration at which a slave not touching before may start a
+            contact [mm]: a node found deep behind a face it was never in front of is on
+            the wrong side of a fold or a junction, not in contact.
 
     Returns:
         (triangle or -1, signed distance [mm], barycentric coordinates (n_s, 3), unit
@@ -178,6 +197,7 @@ def penetrations(x, tris, slaves, offsets, cand, depth, both_sides):
         s = slaves[i]
         p0, p1, p2 = x[s, 0], x[s, 1], x[s, 2]
         best = depth
+        deepest = depth if touching[i] else onset
         for r in range(offsets[i], offsets[i + 1]):
             t = cand[r]
             n0, n1, n2 = tris[t, 0], tris[t, 1], tris[t, 2]
@@ -196,7 +216,7 @@ def penetrations(x, tris, slaves, offsets, cand, depth, both_sides):
             m0, m1, m2 = m0 / size, m1 / size, m2 / size
             w0, w1, w2 = p0 - x[n0, 0], p1 - x[n0, 1], p2 - x[n0, 2]
             d = w0 * m0 + w1 * m1 + w2 * m2
-            if not (-depth < d < (depth if both_sides else 0.0)):
+            if not (-deepest < d < (depth if both_sides else 0.0)):
                 continue
             if abs(d) >= best:
                 continue

@@ -99,8 +99,9 @@ class ExplicitSolver:
                          for sl in model.sliding]
         self._sides += [part for o in self._outside for part in o.parts]
         # surfaces in contact with themselves (folding walls): penalty at every increment
-        self._sides += [SelfContactTerm(by_name[sc.spec.body], sc, lambda: self.dt)
+        self._selves = [SelfContactTerm(by_name[sc.spec.body], sc, lambda: self.dt)
                         for sc in model.self_contacts]
+        self._sides += self._selves
         self._terms = [*self._sides, *self._loads]  # assembled from forms (or split)
         # what the solver commits itself at every increment (not through the model)
         self._own = {id(loop.body) for loop in self._loop_list}
@@ -350,12 +351,15 @@ class ExplicitSolver:
                 [t.residual_vector() for t in self._tools],
                 [loop.state() for loop in self._loop_list],
                 self.tau, self.ledger.state(), self.time_steps, self.dt, self._dt_ref,
-                self._omega2_ref, self._omega2_now)
+                self._omega2_ref, self._omega2_now,
+                [t.touching_vector() for t in self._selves])
 
     def restore(self, snap: tuple) -> None:
         """Return velocities, energies and time to a snapshot; history from the model."""
         (states, terms, tools, loops, self.tau, ledger, self.time_steps, self.dt, self._dt_ref,
-         self._omega2_ref, self._omega2_now) = snap
+         self._omega2_ref, self._omega2_now, touching) = snap
+        for t, arr in zip(self._selves, touching, strict=True):
+            t.set_touching_vector(arr)
         self.ledger.set_state(ledger)
         for st, (v, a, fi, fa) in zip(self.states, states, strict=True):
             st.v[:], st.a[:] = v, a
@@ -377,7 +381,8 @@ class ExplicitSolver:
         return ([(on(st),) * 4 for st in self.states], [on(t.state) for t in self._terms],
                 [on(t.state) for t in self._tools],
                 [loop.state_layout() for loop in self._loop_list],
-                None, None, None, None, None, None, None)
+                None, None, None, None, None, None, None,
+                [on(t.state) for t in self._selves])
 
     # -- reporting --------------------------------------------------------------------------
     def balance(self) -> float:

@@ -1,0 +1,179 @@
+"""Explicit meso runs with walls that touch (issue 20): docs/validation.md ``meso_explicit``.
+
+1. ``meso_compression`` on the 1 x 1 patch, bonded platens, fracturing walls, explicit,
+   to ``--strain`` (0.75 by default): the walls fold, fracture and meet, and the
+   self-contact (docs/theory.md §15) keeps them from passing through each other; the
+   nominal curve with the three regions of the paper's Fig. 6.
+2. The paper's three variants with a touching top platen (friction 0.36): original
+   (the platen on the wall edges), dummy flanges, dummy infill, explicit, to 0.1: which
+   run through, next to the paper's Table 2.
+
+Every run is a ``forming study`` run in ``results/validate_meso_explicit`` (a rerun
+reuses completed and failed runs; delete the folder to measure again). Serial runs.
+
+Run: ``python benchmarks/validate_meso_explicit.py`` (about 40 minutes on one core).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+
+import numpy as np
+from _report import REPO, machine, study_runs, update_section
+from validate_meso import footprint
+
+sys.path.insert(0, str(REPO))
+
+VALIDATION_MD = REPO / "docs" / "validation.md"
+PERFORMANCE_MD = REPO / "docs" / "performance.md"
+FIGURES = REPO / "docs" / "figures"
+PAPER_PEAK = (0.03, 0.40)  # measured C365 peak (strain, MPa), docs/materials.md
+PAPER_PLATEAU = 0.25  # measured plateau [MPa] (estimate of Fig. 6)
+PAPER_TABLE2 = {"original": "323.7 s, did not converge", "flange": "164.9 s",
+                "infill": "321.6 s"}
+RATE = 62.5  # nominal strain rate of every run [1/s] (0.25 in 0.004 s, as meso_fracture)
+EXPLICIT = ("solver=explicit", "stabilisation=0", "explicit.target_time_step=2e-7")
+
+
+def _sets(strain: float, *more: str) -> tuple[str, ...]:
+    return (f"strain={strain:g}", *EXPLICIT, f"explicit.loading_time={strain / RATE:g}",
+            *more)
+
+
+def curve(row, summary: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Nominal strain and stress of a run (the platen's force over the footprint)."""
+    h = np.atleast_1d(np.genfromtxt(row.folder / "history.csv", delimiter=",", names=True))
+    e = h["t"] * summary["parameters"]["strain"]
+    cols = [c for c in h.dtype.names if c.startswith(("reaction_", "force_platen"))
+            and c.endswith("_z_N")]
+    force = sum(h[c] for c in cols)
+    sign = -1.0 if cols[0].startswith("reaction_") else 1.0
+    return e, sign * force / footprint(summary)
+
+
+def regions(e: np.ndarray, s: np.ndarray, peak_strain: float) -> tuple[float, float]:
+    """Plateau (mean stress from twice the peak strain to 0.5) and densification onset.
+
+    The onset is the first strain past the plateau's start at which the stress exceeds
+    twice the plateau; nan when the curve does not get there.
+    """
+    band = (e >= 2 * peak_strain) & (e <= 0.5)
+    plateau = float(s[band].mean()) if band.any() else float("nan")
+    above = np.nonzero((e >= 2 * peak_strain) & (s > 2 * plateau))[0]
+    return plateau, float(e[above[0]]) if above.size else float("nan")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--strain", type=float, default=0.75, help="bonded run's strain")
+    parser.add_argument("--variant-strain", type=float, default=0.1,
+                        help="touching-platen runs' strain")
+    args = parser.parse_args()
+    out = REPO / "results" / "validate_meso_explicit"
+    (bonded_row, bonded), = study_runs("meso_compression", {"cells": ("1,1",)},
+                                       out / "bonded", sets=_sets(args.strain))
+    touching = study_runs("meso_compression",
+                          {"variant": ("original", "flange", "infill")}, out / "contact",
+                          sets=_sets(args.variant_strain, "cells=1,1", "platen=contact"))
+    lines = ["## Meso-scale honeycomb: explicit runs, walls that touch (issue 20)", "",
+             "Fracturing walls (docs/theory.md §15), the 1 x 1 patch, serial, explicit "
+             "with mass scaling (`" + " ".join(f"--set {x}" for x in EXPLICIT)
+             + f"`; nominal strain rate {RATE:g}/s, as in 'fracturing cell walls'), walls "
+             "in contact with each other (`self_contact`, the default). "
+             f"`python benchmarks/validate_meso_explicit.py`; {machine()}.", "",
+             "### Bonded platens, to densification", "",
+             "| status | peak [MPa] | at strain | plateau [MPa] (2 x peak strain to 0.5) "
+             "| densification onset (stress 2 x plateau) | stress at 0.6 / 0.7 [MPa] "
+             "| strain reached | deepest wall overlap [mm] | kinetic / internal at most "
+             "| increments | wall [s] |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    m = bonded.get("metrics", {})
+    curves = []
+    if m:
+        e, s = curve(bonded_row, bonded)
+        plateau, onset = regions(e, s, m["peak_strain"])
+        at = [float(np.interp(x, e, s)) if e[-1] >= x else float("nan") for x in (0.6, 0.7)]
+        status = bonded["status"] + ("" if bonded["status"] == "completed"
+                                     else f": {bonded['reason']}")
+        lines.append(
+            f"| {status} | {m['peak_stress_MPa']:.3f} | {m['peak_strain']:.4f} "
+            f"| {plateau:.3f} | {onset:.3f} | {at[0]:.3f} / {at[1]:.3f} "
+            f"| {m['final_strain']:.4f} | {m.get('self_contact_penetration_max_mm', 0):.4f} "
+            f"| {100 * m['kinetic_to_internal_max']:.1f}% "
+            f"| {bonded['timing']['time_steps']} | {bonded['timing']['wall_s']:.0f} |")
+        curves.append((e, s, "bonded platens (meso, explicit)", "-"))
+        for name, png in (("folded", "folded_walls.png"), ("damaged", "damaged_walls.png")):
+            if (bonded_row.folder / png).is_file():
+                shutil.copy(bonded_row.folder / png, FIGURES / f"meso_explicit_{name}.png")
+    else:
+        lines.append(f"| {bonded_row.status}: {bonded.get('reason', '')} |" + " |" * 10)
+    lines += ["", "### The paper's variants with a touching top platen", "",
+              f"Top platen a rigid tool with friction 0.36, to {args.variant_strain:g}.", "",
+              "| variant | status | strain reached | peak [MPa] | at strain "
+              "| stress at the end [MPa] | deepest wall overlap [mm] "
+              "| kinetic / internal at most | increments | wall [s] | paper, Table 2 |",
+              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for row, s_ in touching:
+        v, mm = row.values["variant"], s_.get("metrics", {})
+        status = s_.get("status", row.status)
+        status += "" if status == "completed" else f": {s_.get('reason', row.reason)}"
+        if not mm:
+            lines.append(f"| {v} | {status} |" + " |" * 8 + f" {PAPER_TABLE2[v]} |")
+            continue
+        lines.append(
+            f"| {v} | {status} | {mm['final_strain']:.4f} | {mm['peak_stress_MPa']:.3f} "
+            f"| {mm['peak_strain']:.4f} | {mm['final_stress_MPa']:.3f} "
+            f"| {mm.get('self_contact_penetration_max_mm', 0):.4f} "
+            f"| {100 * mm['kinetic_to_internal_max']:.1f}% | {s_['timing']['time_steps']} "
+            f"| {s_['timing']['wall_s']:.0f} | {PAPER_TABLE2[v]} |")
+        e, s = curve(row, s_)
+        curves.append((e, s, f"touching platen, {v}", "--"))
+    import forming  # noqa: F401  (PETSc before dolfinx)
+    from forming.materials.library import honeycomb_core
+    from forming.output import plot_curves
+
+    grid = np.linspace(0.0, args.strain, 200)
+    curves += [(grid, honeycomb_core("isotropic").curve.interpolate(grid),
+                "macro model's C365 curve (estimate of Fig. 6)", "k:"),
+               (np.array([PAPER_PEAK[0]]), np.array([PAPER_PEAK[1]]),
+                "measured peak (paper, Fig. 6)", "ks")]
+    plot_curves(FIGURES / "meso_explicit_stress_strain.png", curves, "nominal strain",
+                "nominal stress [MPa]", "Meso compression, explicit, walls in contact")
+    lines += ["", "![meso explicit stress-strain](figures/meso_explicit_stress_strain.png)"]
+    lines += [f"![{n} walls, bonded, explicit](figures/meso_explicit_{n}.png)"
+              for n in ("folded", "damaged") if (FIGURES / f"meso_explicit_{n}.png").is_file()]
+    update_section("meso_explicit", "\n".join(lines), VALIDATION_MD)
+    print("\n".join(lines))
+    cost = cost_lines([("bonded", bonded_row, bonded)]
+                      + [(f"touching, {r.values['variant']}", r, x) for r, x in touching])
+    update_section("meso_explicit_cost", "\n".join(cost), PERFORMANCE_MD)
+    print("\n".join(cost))
+
+
+def cost_lines(runs: list) -> list[str]:
+    """The explicit meso runs' cost (docs/performance.md)."""
+    lines = ["## Explicit meso runs: cost", "",
+             "Written by `python benchmarks/validate_meso_explicit.py` (docs/validation.md, "
+             f"'explicit runs, walls that touch', has the results); serial, {machine()}. "
+             "The paper's Abaqus/Explicit meso runs (Table 2): 164.9 s (dummy flanges), "
+             "321.6 s (dummy infill), 323.7 s (original, did not converge), on a machine "
+             "and patch it does not state.", "",
+             "| run | status | strain reached | unknowns | elements | increments "
+             "| us per element and increment | wall [s] |",
+             "|---|---|---:|---:|---:|---:|---:|---:|"]
+    for name, row, s in runs:
+        t = s.get("timing", {})
+        if not t:
+            lines.append(f"| {name} | {row.status} |" + " |" * 6)
+            continue
+        lines.append(f"| {name} | {s['status']} | {s['metrics']['final_strain']:.4f} "
+                     f"| {row.unknowns} | {t['elements']} | {t['time_steps']} "
+                     f"| {t.get('us_per_element_increment', float('nan')):.1f} "
+                     f"| {t['wall_s']:.0f} |")
+    return lines
+
+
+if __name__ == "__main__":
+    main()
