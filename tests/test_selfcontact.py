@@ -27,14 +27,14 @@ E, RHO = 100.0, 1e-9  # MPa, t/mm^3
 SIDE, HEIGHT, GAP, PUSH = 2.0, 2.0, 0.05, 0.1  # mm (strains below 1%: linear)
 
 
-def _two_blocks(degree_cells: int = 2) -> MeshData:
-    """Two 2 x 2 x 2 mm blocks, one above the other, ``GAP`` apart; the faces that meet
-    form the group ``touching``."""
+def _two_blocks(degree_cells: int = 2, gap: float = GAP) -> MeshData:
+    """Two 2 x 2 x 2 mm blocks, one above the other, ``gap`` apart (negative: they
+    overlap); the faces that meet form the group ``touching``."""
     from dolfinx import mesh as dmesh  # after forming (run as a script under mpirun)
 
     n = (degree_cells,) * 3
     md = blocks([Block("lower", (SIDE, SIDE, HEIGHT), n),
-                 Block("upper", (SIDE, SIDE, HEIGHT), n, origin=(0.0, 0.0, HEIGHT + GAP))])
+                 Block("upper", (SIDE, SIDE, HEIGHT), n, origin=(0.0, 0.0, HEIGHT + gap))])
     tags = md.facet_tags
     values = tags.values.copy()
     for name in ("lower_top", "upper_bottom"):
@@ -92,6 +92,24 @@ def test_implicit_run_stops_where_the_surface_meets_itself(tmp_path):
     assert "self-contact is enforced by the explicit solver only" in s["reason"]
     closed = GAP / PUSH  # load parameter at which the gap closes
     assert closed - 0.05 - 1e-9 <= s["load_parameter_reached"] < closed
+
+
+def test_a_node_found_deep_behind_a_face_starts_no_contact(tmp_path):
+    """Blocks that overlap from the start by more than a contact may begin at (a tenth of
+    the search depth): no node was ever in front of the other block's face, so none is in
+    contact, and the upper block is pushed down without resistance. In a folding wall
+    such nodes are across a fold or a junction; pushing them out flung them at 100 m/s.
+    A force means the onset rule is gone.
+    """
+    overlap = 0.2  # mm, the search depth is 0.5 (half the 1 mm elements)
+    job = Job(_scene(_two_blocks(gap=-overlap)), steps=StepControl(initial=0.1, max=0.1,
+                                                                   min=0.1),
+              solver="explicit", explicit=ExplicitOptions(loading_time=1e-3))
+    s = simulate(job, tmp_path, "blocks", {})
+    assert s["status"] == "completed", s["reason"]
+    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    assert np.all(h["self_contact_blocks_pairs"] == 0)
+    assert abs(h["reaction_upper_top_z_N"][-1]) < 1e-3 * E * SIDE**2 * PUSH / (2 * HEIGHT)
 
 
 @pytest.mark.parametrize("field,value", [("depth", -1.0), ("stiffness", 2.0),
