@@ -119,6 +119,9 @@ class Params:
     stabilisation: float = 2e-4  # viscous stabilisation, dissipated energy fraction (0: none)
     platen: Literal["bonded", "contact"] = "bonded"  # top platen held to the walls or touching
     platen_friction: float = 0.36  # platen-wall friction when touching (tool-core, stated)
+    # the touching platen's stick law: elastic slip (implicit: with the augmented stick
+    # Newton fails in the first step of a quadratic wall's nine touching nodes) or augmented
+    platen_stick: Literal["elastic_slip", "augmented"] = "elastic_slip"
     variant: Literal["original", "infill", "flange"] = "original"  # walls alone or with dummies
     flange_width: float = 1.0  # dummy flange width into the pores [mm] (our estimate)
     flange_thickness: float = 0.3  # dummy flange thickness [mm] (our estimate)
@@ -195,7 +198,8 @@ def build(p: Params) -> Job:
         loading = dict(displacements=bottoms,
                        tools=tuple(Tool(tool, plane, z=Linear(-stroke))
                                    for _b, _bt, _t, tool in parts),
-                       contacts=tuple(Contact(b, top, tool, friction=p.platen_friction)
+                       contacts=tuple(Contact(b, top, tool, friction=p.platen_friction,
+                                                  stick=p.platen_stick)
                                       for b, _bt, top, tool in parts))
         columns, scale = [f"force_{tool}_z_N" for _b, _bt, _t, tool in parts], 1.0
     # folds of the walls meet: contact between the walls' faces

@@ -29,7 +29,12 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat  # noqa: F401
-from forming.contact.selfkernels import candidates, penalty_residual, penetrations
+from forming.contact.selfkernels import (
+    candidates,
+    pair_shares,
+    penalty_residual,
+    penetrations,
+)
 from forming.errors import InputError
 from forming.scene_contact import SelfContact
 
@@ -227,8 +232,12 @@ class SurfaceSelfContact:
         hit, dist, bary, normal = self._search(x)
         r = np.zeros((self.n, 3))
         vel = self._gather(v.reshape(-1, 3)[self.own_blocks])
+        share = np.zeros(self.n)
+        pair_shares(self.own_rows, hit, dist, bary, self.tris, share)
+        if self.comm.size > 1:
+            self.comm.Allreduce(MPI.IN_PLACE, share, op=MPI.SUM)
         pairs, energy, deepest = penalty_residual(self.own_rows, hit, dist, bary, normal,
-                                                  self.tris, self.mass, vel,
+                                                  self.tris, self.mass, vel, share,
                                                   self.spec.stiffness, self.spec.damping, dt, r)
         if self.comm.size > 1:
             self.comm.Allreduce(MPI.IN_PLACE, r, op=MPI.SUM)

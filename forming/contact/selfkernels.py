@@ -250,13 +250,32 @@ def penetrations(x, tris, slaves, offsets, cand, depth, both_sides, touching, on
 
 
 @numba.njit(cache=True)
-def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, scale, damping, dt, r):
+def pair_shares(slaves, hit, dist, bary, tris, share):
+    """Add to ``share`` how many pairs pull on each node.
+
+    A slave counts 1, a triangle's node its barycentric weight; summed over ranks, it
+    divides the pairs' penalties (:func:`penalty_residual`).
+    """
+    for i in range(slaves.shape[0]):
+        t = hit[i]
+        if t < 0 or dist[i] >= 0.0:
+            continue
+        share[slaves[i]] += 1.0
+        for a in range(3):
+            share[tris[t, a]] += bary[i, a]
+
+
+@numba.njit(cache=True)
+def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, share, scale, damping,
+                     dt, r):
     """Add the penalty forces of the penetrated slaves to the residual ``r``.
 
     The penalty of a pair is ``k = scale m / dt^2``, ``m`` the pair's reduced mass
     (``1/m = 1/m_s + sum_a lambda_a^2 / m_a``, the mass its normal motion moves): the
     soft-constraint penalty of explicit codes, which cannot shorten the stable time step
-    for ``scale`` well below 1. A viscous force
+    for ``scale`` well below 1; it is divided by the largest number of pairs that share a
+    node of the pair (a master node under several slaves would otherwise sum their
+    penalties past the stable limit). A viscous force
     ``c w``, ``c = 2 damping sqrt(k m)``, on the normal approach velocity ``w`` damps the
     pair's ringing (contact damping); the normal force never pulls.
 
@@ -269,6 +288,7 @@ def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, scale, da
         tris: (n_t, 3) triangles.
         mass: (n,) lumped nodal masses [t].
         vel: (n, 3) nodal velocities [mm/s].
+        share: (n,) pairs pulling on each node (:func:`pair_shares`, over all ranks).
         scale: Penalty over ``m / dt^2``.
         damping: Fraction of the pair's critical damping.
         dt: Time step [s].
@@ -285,11 +305,15 @@ def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, scale, da
         if t < 0 or dist[i] >= 0.0:
             continue
         s = slaves[i]
+        most = max(share[s], 1.0)
+        for a in range(3):
+            if bary[i, a] > 0.0:
+                most = max(most, share[tris[t, a]])
         inv = 1.0 / mass[s]  # the pair's reduced mass along the normal
         for a in range(3):
             inv += bary[i, a] ** 2 / mass[tris[t, a]]
         m = 1.0 / inv
-        k = scale * m / (dt * dt)
+        k = scale * m / (dt * dt * most)
         w = 0.0  # approach velocity: the slave's along -n relative to the face's point
         for c in range(3):
             rel = vel[s, c]
