@@ -96,7 +96,10 @@ class SurfaceSelfContact:
         self._x_list: np.ndarray | None = None  # positions the candidate list was built at
         self._list = (np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64))
         self.searches = 0  # candidate lists built
-        self.touching = np.zeros(self.own_rows.size, dtype=bool)  # at the last evaluation
+        # per own slave: its triangle at the last evaluation (-1: none), its elastic
+        # normal force [N] and signed distance [mm] (the rate-form penalty)
+        self.pair_state = np.zeros((self.own_rows.size, 3))
+        self.pair_state[:, 0] = -1.0
         self._live = np.ones(self.n, dtype=bool)  # nodes the candidate list follows
         self.deepest = 0.0  # deepest penetration of the run so far [mm]
 
@@ -180,10 +183,8 @@ class SurfaceSelfContact:
             self._live = ~node_dead  # what the list must follow (not the eroded fragments)
             self._x_list = x.copy()
             self.searches += 1
-        out = penetrations(x, self.tris, self.own_rows, *self._list, self.depth, False,
-                           self.touching, ONSET * self.depth)
-        self.touching = out[0] >= 0
-        return out
+        return penetrations(x, self.tris, self.own_rows, *self._list, self.depth, False,
+                            self.pair_state[:, 0] >= 0, ONSET * self.depth)
 
     def _dead(self) -> tuple[np.ndarray, np.ndarray]:
         """Triangles on eroded cells, and nodes of eroded cells only (collective).
@@ -238,7 +239,8 @@ class SurfaceSelfContact:
             self.comm.Allreduce(MPI.IN_PLACE, share, op=MPI.SUM)
         pairs, energy, deepest = penalty_residual(self.own_rows, hit, dist, bary, normal,
                                                   self.tris, self.mass, vel, share,
-                                                  self.spec.stiffness, self.spec.damping, dt, r)
+                                                  self.spec.stiffness, self.spec.damping, dt,
+                                                  self.pair_state, r)
         if self.comm.size > 1:
             self.comm.Allreduce(MPI.IN_PLACE, r, op=MPI.SUM)
             both = np.array([pairs, energy], dtype=float)
@@ -263,7 +265,8 @@ class SurfaceSelfContact:
         listed = candidates(x, self.tris, self.tri_cell, self.ptr, self.cells,
                             self.own_rows, self.depth, *self._dead())
         hit, dist, _b, _n = penetrations(x, self.tris, self.own_rows, *listed, self.depth,
-                                         False, self.touching, self.depth)
+                                         False, np.zeros(self.own_rows.size, dtype=bool),
+                                         self.depth)
         inside = hit >= 0
         count = self.comm.allreduce(int(inside.sum()), op=MPI.SUM)
         deepest = self.comm.allreduce(float(dist[inside].min(initial=0.0)), op=MPI.MIN)
@@ -338,11 +341,14 @@ class SelfContactTerm:
         return self.vec.x.array[: self.state.n_owned]
 
     def touching_vector(self) -> np.ndarray:
-        """Which surface nodes touch, as an array of the body's vector (a snapshot)."""
+        """The slaves' pair state as an array of the body's vector (a snapshot).
+
+        Per node: its triangle (-1: none), elastic normal force and signed distance.
+        """
         out = np.zeros_like(self.vec.x.array)
-        out.reshape(-1, 3)[self.surface.own_blocks, 0] = self.surface.touching
+        out.reshape(-1, 3)[self.surface.own_blocks] = self.surface.pair_state
         return out
 
     def set_touching_vector(self, arr: np.ndarray) -> None:
-        """Return which nodes touch to a snapshot's."""
-        self.surface.touching = arr.reshape(-1, 3)[self.surface.own_blocks, 0] > 0.5
+        """Return the slaves' pair state to a snapshot's."""
+        self.surface.pair_state[:] = arr.reshape(-1, 3)[self.surface.own_blocks]

@@ -267,7 +267,7 @@ def pair_shares(slaves, hit, dist, bary, tris, share):
 
 @numba.njit(cache=True)
 def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, share, scale, damping,
-                     dt, r):
+                     dt, state, r):
     """Add the penalty forces of the penetrated slaves to the residual ``r``.
 
     The penalty of a pair is ``k = scale m / dt^2``, ``m`` the pair's reduced mass
@@ -275,9 +275,15 @@ def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, share, sc
     soft-constraint penalty of explicit codes, which cannot shorten the stable time step
     for ``scale`` well below 1; it is divided by the largest number of pairs that share a
     node of the pair (a master node under several slaves would otherwise sum their
-    penalties past the stable limit). A viscous force
-    ``c w``, ``c = 2 damping sqrt(k m)``, on the normal approach velocity ``w`` damps the
-    pair's ringing (contact damping); the normal force never pulls.
+    penalties past the stable limit).
+
+    The elastic normal force is updated in rate form, ``f += k (d_old - d)`` (on the same
+    triangle; a slave that moves to another keeps its force), and capped by ``k (-d)``:
+    a penalty that grows while a pair is penetrated (another pair leaves a shared node,
+    the reduced mass or the time step changes) then adds no energy, which the total form
+    ``k (-d)`` did (the contact's work turned negative and the walls inverted). A viscous
+    force ``c w``, ``c = 2 damping sqrt(k m)``, on the normal approach velocity ``w``
+    damps the pair's ringing; the normal force never pulls.
 
     Args:
         slaves: Slave node indices.
@@ -292,6 +298,8 @@ def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, share, sc
         scale: Penalty over ``m / dt^2``.
         damping: Fraction of the pair's critical damping.
         dt: Time step [s].
+        state: (n_s, 3) per slave: the triangle of the last evaluation (-1: none), its
+            elastic normal force [N] and signed distance [mm]; updated.
         r: (n, 3) residual (internal minus external forces), added to.
 
     Returns:
@@ -303,6 +311,7 @@ def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, share, sc
     for i in range(slaves.shape[0]):
         t = hit[i]
         if t < 0 or dist[i] >= 0.0:
+            state[i, 0], state[i, 1], state[i, 2] = -1.0, 0.0, 0.0
             continue
         s = slaves[i]
         most = max(share[s], 1.0)
@@ -314,18 +323,22 @@ def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, share, sc
             inv += bary[i, a] ** 2 / mass[tris[t, a]]
         m = 1.0 / inv
         k = scale * m / (dt * dt * most)
+        elastic = state[i, 1] + k * (state[i, 2] - dist[i]) if state[i, 0] == t \
+            else (state[i, 1] if state[i, 0] >= 0 else -k * dist[i])
+        elastic = min(max(elastic, 0.0), -k * dist[i])
+        state[i, 0], state[i, 1], state[i, 2] = t, elastic, dist[i]
         w = 0.0  # approach velocity: the slave's along -n relative to the face's point
         for c in range(3):
             rel = vel[s, c]
             for a in range(3):
                 rel -= bary[i, a] * vel[tris[t, a], c]
             w -= rel * normal[i, c]
-        fn = max(-k * dist[i] + 2.0 * damping * np.sqrt(k * m) * w, 0.0)
+        fn = max(elastic + 2.0 * damping * np.sqrt(k * m) * w, 0.0)
         for c in range(3):
             r[s, c] -= fn * normal[i, c]
             for a in range(3):
                 r[tris[t, a], c] += bary[i, a] * fn * normal[i, c]
-        energy += 0.5 * k * dist[i] * dist[i]
+        energy += 0.5 * elastic * elastic / k
         deepest = max(deepest, -dist[i])
         count += 1
     return count, energy, deepest
