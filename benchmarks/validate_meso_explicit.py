@@ -12,14 +12,18 @@
 Every run is a ``forming study`` run in ``results/validate_meso_explicit`` (a rerun
 reuses completed and failed runs; delete the folder to measure again). Serial runs.
 
-Run: ``python benchmarks/validate_meso_explicit.py`` (about 70 minutes on one core).
+Run: ``python benchmarks/validate_meso_explicit.py`` (about 70 minutes on one core);
+``--report`` writes the sections from the runs already in the folder (stopped or
+interrupted ones included, each with the commit it ran at) without running any.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import shutil
 import sys
+from pathlib import Path
 
 import numpy as np
 from _report import REPO, machine, study_runs, update_section
@@ -41,6 +45,29 @@ EXPLICIT = ("solver=explicit", "stabilisation=0", "explicit.target_time_step=2e-
 def _sets(strain: float, *more: str) -> tuple[str, ...]:
     return (f"strain={strain:g}", *EXPLICIT, f"explicit.loading_time={strain / RATE:g}",
             *more)
+
+
+def existing(vary: dict[str, tuple], out: Path) -> list[tuple[object, dict]]:
+    """The runs of a study already in ``out`` (any status), without running any."""
+    from forming.study import Row, folder_name
+
+    pairs = []
+    for level in vary[next(iter(vary))]:
+        values = {next(iter(vary)): str(level)}
+        folder = out / "runs" / folder_name(values)
+        try:
+            summary = json.loads((folder / "summary.json").read_text())
+        except (OSError, json.JSONDecodeError):
+            pairs.append((Row(values, folder, "not run"), {}))
+            continue
+        pairs.append((Row.from_summary(values, folder, summary), summary))
+    return pairs
+
+
+def commit(summary: dict) -> str:
+    """The short commit a run ran at (``?`` if unknown, ``+`` if the checkout was dirty)."""
+    git = (summary.get("run") or {}).get("git") or {}
+    return (git.get("commit") or "?")[:7] + ("+" if git.get("dirty") else "")
 
 
 def curve(row, summary: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -71,13 +98,20 @@ def main() -> None:
     parser.add_argument("--strain", type=float, default=0.75, help="bonded run's strain")
     parser.add_argument("--variant-strain", type=float, default=0.1,
                         help="touching-platen runs' strain")
+    parser.add_argument("--report", action="store_true",
+                        help="write the sections from the runs in the folder, run none")
     args = parser.parse_args()
     out = REPO / "results" / "validate_meso_explicit"
-    (bonded_row, bonded), = study_runs("meso_compression", {"cells": ("1,1",)},
-                                       out / "bonded", sets=_sets(args.strain))
-    touching = study_runs("meso_compression",
-                          {"variant": ("original", "flange", "infill")}, out / "contact",
-                          sets=_sets(args.variant_strain, "cells=1,1", "platen=contact",
+
+    def runs(case: str, vary: dict[str, tuple], sub: str, sets: tuple[str, ...] = ()):
+        if args.report:
+            return existing(vary, out / sub)
+        return study_runs(case, vary, out / sub, sets=sets)
+
+    (bonded_row, bonded), = runs("meso_compression", {"cells": ("1,1",)}, "bonded",
+                                 _sets(args.strain))
+    touching = runs("meso_compression", {"variant": ("original", "flange", "infill")},
+                    "contact", _sets(args.variant_strain, "cells=1,1", "platen=contact",
                                      "platen_stick=augmented"))
     lines = ["## Meso-scale honeycomb: explicit runs, walls that touch (issue 20)", "",
              "Fracturing walls (docs/theory.md §15), the 1 x 1 patch, serial, explicit "
@@ -89,8 +123,8 @@ def main() -> None:
              "| status | peak [MPa] | at strain | plateau [MPa] (2 x peak strain to 0.5) "
              "| densification onset (stress 2 x plateau) | stress at 0.6 / 0.7 [MPa] "
              "| strain reached | deepest wall overlap [mm] | kinetic / internal at most "
-             "| increments | wall [s] |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| increments | wall [s] | commit |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     m = bonded.get("metrics", {})
     curves = []
     if m:
@@ -104,7 +138,8 @@ def main() -> None:
             f"| {plateau:.3f} | {onset:.3f} | {at[0]:.3f} / {at[1]:.3f} "
             f"| {m['final_strain']:.4f} | {m.get('self_contact_penetration_max_mm', 0):.4f} "
             f"| {100 * m['kinetic_to_internal_max']:.1f}% "
-            f"| {bonded['timing']['time_steps']} | {bonded['timing']['wall_s']:.0f} |")
+            f"| {bonded['timing']['time_steps']} | {bonded['timing']['wall_s']:.0f} "
+            f"| {commit(bonded)} |")
         curves.append((e, s, "bonded platens (meso, explicit)", "-"))
         for name, png in (("folded", "folded_walls.png"), ("damaged", "damaged_walls.png")):
             if (bonded_row.folder / png).is_file():
@@ -123,8 +158,9 @@ def main() -> None:
               "have not been rerun since.", "",
               "| variant | status | strain reached | peak [MPa] | at strain "
               "| stress at the end [MPa] | deepest wall overlap [mm] "
-              "| kinetic / internal at most | increments | wall [s] | paper, Table 2 |",
-              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+              "| kinetic / internal at most | increments | wall [s] | paper, Table 2 "
+              "| commit |",
+              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
     for row, s_ in touching:
         v, mm = row.values["variant"], s_.get("metrics", {})
         status = s_.get("status", row.status)
@@ -137,10 +173,10 @@ def main() -> None:
             f"| {mm['peak_strain']:.4f} | {mm['final_stress_MPa']:.3f} "
             f"| {mm.get('self_contact_penetration_max_mm', 0):.4f} "
             f"| {100 * mm['kinetic_to_internal_max']:.1f}% | {s_['timing']['time_steps']} "
-            f"| {s_['timing']['wall_s']:.0f} | {PAPER_TABLE2[v]} |")
+            f"| {s_['timing']['wall_s']:.0f} | {PAPER_TABLE2[v]} | {commit(s_)} |")
         e, s = curve(row, s_)
         curves.append((e, s, f"touching platen, {v}", "--"))
-    crushing = study_runs("meso_crushing", {"cells": ("2,2",)}, out / "crushing")
+    crushing = runs("meso_crushing", {"cells": ("2,2",)}, "crushing")
     lines += crushing_lines(crushing)
     import forming  # noqa: F401  (PETSc before dolfinx)
     from forming.materials.library import honeycomb_core
@@ -176,8 +212,8 @@ def crushing_lines(runs: list) -> list[str]:
              "move of the wall tops under the punch's flat face and outside the punch.", "",
              "| patch | status | stroke reached [mm] | punch force max [N] | settlement "
              "inside / outside (largest outside) [mm] | damaged volume outside the punch "
-             "| deepest wall overlap [mm] | kinetic / internal at most | wall [s] |",
-             "|---|---|---:|---:|---|---:|---:|---:|---:|"]
+             "| deepest wall overlap [mm] | kinetic / internal at most | wall [s] | commit |",
+             "|---|---|---:|---:|---|---:|---:|---:|---:|---|"]
     for row, s in runs:
         m = s.get("metrics", {})
         status = s.get("status", row.status)
@@ -191,7 +227,8 @@ def crushing_lines(runs: list) -> list[str]:
             f"{m['settlement_outside_mm']:.2f} ({m['settlement_outside_max_mm']:.2f}) "
             f"| {100 * m['damaged_volume_outside_fraction']:.1f}% "
             f"| {m.get('self_contact_penetration_max_mm', 0):.4f} "
-            f"| {100 * m['kinetic_to_internal_max']:.1f}% | {s['timing']['wall_s']:.0f} |")
+            f"| {100 * m['kinetic_to_internal_max']:.1f}% | {s['timing']['wall_s']:.0f} "
+            f"| {commit(s)} |")
         png = row.folder / "folded_walls.png"
         if png.is_file():
             shutil.copy(png, FIGURES / "meso_crushing_walls.png")
@@ -207,7 +244,7 @@ def cost_lines(runs: list) -> list[str]:
              "The paper's Abaqus/Explicit meso runs (Table 2): 164.9 s (dummy flanges), "
              "321.6 s (dummy infill), 323.7 s (original, did not converge), on a machine "
              "and patch it does not state.", "",
-             "| run | status | strain reached | unknowns | elements | increments "
+             "| run | status | load reached | unknowns | elements | increments "
              "| us per element and increment | wall [s] |",
              "|---|---|---:|---:|---:|---:|---:|---:|"]
     for name, row, s in runs:
@@ -215,7 +252,7 @@ def cost_lines(runs: list) -> list[str]:
         if not t:
             lines.append(f"| {name} | {row.status} |" + " |" * 6)
             continue
-        lines.append(f"| {name} | {s['status']} | {s['metrics']['final_strain']:.4f} "
+        lines.append(f"| {name} | {s['status']} | {s.get('load_parameter_reached', 0):.3f} "
                      f"| {row.unknowns} | {t['elements']} | {t['time_steps']} "
                      f"| {t.get('us_per_element_increment', float('nan')):.1f} "
                      f"| {t['wall_s']:.0f} |")
