@@ -84,12 +84,14 @@ def curve(row, summary: dict) -> tuple[np.ndarray, np.ndarray]:
 def regions(e: np.ndarray, s: np.ndarray, peak_strain: float) -> tuple[float, float]:
     """Plateau (mean stress from twice the peak strain to 0.5) and densification onset.
 
-    The onset is the first strain past the plateau's start at which the stress exceeds
-    twice the plateau; nan when the curve does not get there.
+    The onset is the first strain past the curve's lowest point after the peak at which
+    the stress exceeds twice the plateau; nan when the curve does not get there.
     """
     band = (e >= 2 * peak_strain) & (e <= 0.5)
     plateau = float(s[band].mean()) if band.any() else float("nan")
-    above = np.nonzero((e >= 2 * peak_strain) & (s > 2 * plateau))[0]
+    after = e > peak_strain
+    lowest = e[after][int(np.argmin(s[after]))] if after.any() else np.inf
+    above = np.nonzero((e > lowest) & (s > 2 * plateau))[0]
     return plateau, float(e[above[0]]) if above.size else float("nan")
 
 
@@ -141,6 +143,17 @@ def main() -> None:
             f"| {bonded['timing']['time_steps']} | {bonded['timing']['wall_s']:.0f} "
             f"| {commit(bonded)} |")
         curves.append((e, s, "bonded platens (meso, explicit)", "-"))
+        ledger = np.atleast_1d(np.genfromtxt(bonded_row.folder / "history.csv",
+                                             delimiter=",", names=True))["energy_friction_Nmm"]
+        lines += ["", f"- The plateau, {plateau:.3f} MPa, against the measured core's about "
+                  f"{PAPER_PLATEAU} MPa (docs/materials.md, an estimate from Fig. 6).",
+                  f"- Strain reached {m['final_strain']:.3f}"
+                  + ("." if bonded["status"] == "completed" else
+                     f" ({bonded['status']}); densification "
+                     + ("not reached." if np.isnan(onset) else f"from {onset:.3f}.")),
+                  f"- The contact's ledger (penalty work, with the interface terms') "
+                  f"ended at {ledger[-1]:.2f} N mm (lowest {ledger.min():.2f}): negative "
+                  "means the penalty gave the walls energy it had not stored."]
         for name, png in (("folded", "folded_walls.png"), ("damaged", "damaged_walls.png")):
             if (bonded_row.folder / png).is_file():
                 shutil.copy(bonded_row.folder / png, FIGURES / f"meso_explicit_{name}.png")
@@ -229,6 +242,15 @@ def crushing_lines(runs: list) -> list[str]:
             f"| {m.get('self_contact_penetration_max_mm', 0):.4f} "
             f"| {100 * m['kinetic_to_internal_max']:.1f}% | {s['timing']['wall_s']:.0f} "
             f"| {commit(s)} |")
+        h = np.atleast_1d(np.genfromtxt(row.folder / "history.csv", delimiter=",",
+                                        names=True))
+        i = int(np.argmax(h["force_punch_z_N"]))
+        travel = s["parameters"]["stroke"] * s["parameters"]["height"]
+        lines += ["", f"At the force peak ({h['force_punch_z_N'][i]:.1f} N, "
+                  f"{h['t'][i] * travel:.2f} mm of stroke) the wall tops under the punch "
+                  f"had settled {h['settlement_inside_mm'][i]:.3f} mm and those outside "
+                  f"{h['settlement_outside_mm'][i]:.3f} mm (largest "
+                  f"{h['settlement_outside_max_mm'][i]:.3f} mm)."]
         png = row.folder / "folded_walls.png"
         if png.is_file():
             shutil.copy(png, FIGURES / "meso_crushing_walls.png")
