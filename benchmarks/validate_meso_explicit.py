@@ -64,6 +64,12 @@ def existing(vary: dict[str, tuple], out: Path) -> list[tuple[object, dict]]:
     return pairs
 
 
+def status_text(row, summary: dict) -> str:
+    """A run's status, with the reason unless it completed."""
+    status = summary.get("status", row.status)
+    return status if status == "completed" else f"{status}: {summary.get('reason', row.reason)}"
+
+
 def commit(summary: dict) -> str:
     """The short commit a run ran at (``?`` if unknown, ``+`` if the checkout was dirty)."""
     git = (summary.get("run") or {}).get("git") or {}
@@ -133,8 +139,7 @@ def main() -> None:
         e, s = curve(bonded_row, bonded)
         plateau, onset = regions(e, s, m["peak_strain"])
         at = [float(np.interp(x, e, s)) if e[-1] >= x else float("nan") for x in (0.6, 0.7)]
-        status = bonded["status"] + ("" if bonded["status"] == "completed"
-                                     else f": {bonded['reason']}")
+        status = status_text(bonded_row, bonded)
         lines.append(
             f"| {status} | {m['peak_stress_MPa']:.3f} | {m['peak_strain']:.4f} "
             f"| {plateau:.3f} | {onset:.3f} | {at[0]:.3f} / {at[1]:.3f} "
@@ -176,8 +181,7 @@ def main() -> None:
               "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
     for row, s_ in touching:
         v, mm = row.values["variant"], s_.get("metrics", {})
-        status = s_.get("status", row.status)
-        status += "" if status == "completed" else f": {s_.get('reason', row.reason)}"
+        status = status_text(row, s_)
         if not mm:
             lines.append(f"| {v} | {status} |" + " |" * 8 + f" {PAPER_TABLE2[v]} |")
             continue
@@ -229,8 +233,7 @@ def crushing_lines(runs: list) -> list[str]:
              "|---|---|---:|---:|---|---:|---:|---:|---:|---|"]
     for row, s in runs:
         m = s.get("metrics", {})
-        status = s.get("status", row.status)
-        status += "" if status == "completed" else f": {s.get('reason', row.reason)}"
+        status = status_text(row, s)
         if not m:
             lines.append(f"| {row.values['cells']} | {status} |" + " |" * 7)
             continue

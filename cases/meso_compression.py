@@ -69,7 +69,12 @@ from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.fracture import FracturingSolid
 from forming.materials.library import honeycomb_core
 from forming.materials.solids import ElasticSolid
-from forming.meso.honeycomb import HoneycombCell, HoneycombPatch, honeycomb_mesh
+from forming.meso.honeycomb import (
+    WALL_DENSITY,
+    HoneycombCell,
+    HoneycombPatch,
+    honeycomb_mesh,
+)
 from forming.meso.post import folded_walls_picture, wall_strain_extremes
 from forming.output import plot_curves
 from forming.post.fields import fracture_energy
@@ -89,7 +94,6 @@ from forming.solver.stepping import StepControl
 
 INFILL_MODULUS, INFILL_POISSON = 0.3, 0.0  # the paper's dummy infill, Table 3 [MPa]
 FLANGE_MODULUS, FLANGE_POISSON = 4.0, 0.21  # the paper's dummy flanges, Table 3 [MPa]
-WALL_DENSITY = 7.4e-10  # cardboard walls and dummy flanges, Tables 1 and 3 [t/mm^3]
 INFILL_DENSITY = 5.0e-11  # the dummy infill, Table 3 [t/mm^3]
 
 
@@ -172,7 +176,7 @@ def build(p: Params) -> Job:
         interfaces = (Interface("wall_infill", "walls", "infill", kind="bonded"),)
     elif p.variant == "flange":  # Table 3's dummy flanges on the walls' top edges
         flange = ElasticSolid(IsotropicElasticity(FLANGE_MODULUS, FLANGE_POISSON),
-                              density=WALL_DENSITY)
+                              density=WALL_DENSITY)  # Table 3: the walls' density
         bodies.append(Body("flange", flange, region="flange", degree=2))
         parts.append(("flange", None, "flange_top", "platen_flange"))
         interfaces = (Interface("wall_flange", "walls", "flange", kind="bonded"),)

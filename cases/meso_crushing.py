@@ -47,14 +47,18 @@ from forming.errors import InputError
 from forming.job import Job, Response
 from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.fracture import FracturingSolid
-from forming.meso.honeycomb import HoneycombCell, HoneycombPatch, honeycomb_mesh
+from forming.meso.honeycomb import (
+    WALL_DENSITY,
+    HoneycombCell,
+    HoneycombPatch,
+    honeycomb_mesh,
+)
 from forming.meso.post import folded_walls_picture
 from forming.post.fields import PointIntegral
 from forming.scene import Body, Contact, Displacement, Linear, Scene, SelfContact, Tool
 from forming.solver.options import ExplicitOptions
 from forming.solver.stepping import StepControl
 
-WALL_DENSITY = 7.4e-10  # cardboard walls, Table 1 [t/mm^3]
 RATE = 62.5  # nominal strain rate of the explicit meso runs [1/s] (docs/validation.md)
 
 

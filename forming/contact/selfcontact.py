@@ -62,7 +62,6 @@ class SurfaceSelfContact:
         self.comm = comm = msh.comm
         V = body.V
         imap = V.dofmap.index_map
-        self._n_owned_blocks = imap.size_local
         tris, tri_cell, pairs, depth = self._local_surface(spec, body)
         gather = comm.allgather if comm.size > 1 else (lambda a: [a])
         tris_g = np.concatenate(gather(tris))
@@ -91,11 +90,9 @@ class SurfaceSelfContact:
         self.x_ref = self._gather(V.tabulate_dof_coordinates()[self.own_blocks])
         self.mass: np.ndarray | None = None
         self.pairs = 0  # pairs in contact at the last evaluation
-        self.energy = 0.0  # stored penalty energy at the last evaluation [N mm]
         self.penetration = 0.0  # deepest penetration at the last evaluation [mm]
         self._x_list: np.ndarray | None = None  # positions the candidate list was built at
         self._list = (np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64))
-        self.searches = 0  # candidate lists built
         # per own slave: its triangle at the last evaluation (-1: none), its elastic
         # normal force [N] and signed distance [mm] (the rate-form penalty)
         self.pair_state = np.zeros((self.own_rows.size, 3))
@@ -182,7 +179,6 @@ class SurfaceSelfContact:
                                     self.own_rows, 2.0 * self.depth, tri_dead, node_dead)
             self._live = ~node_dead  # what the list must follow (not the eroded fragments)
             self._x_list = x.copy()
-            self.searches += 1
         return penetrations(x, self.tris, self.own_rows, *self._list, self.depth, False,
                             self.pair_state[:, 0] >= 0, ONSET * self.depth)
 
@@ -212,6 +208,14 @@ class SurfaceSelfContact:
         node_dead = (alive == 0) & (np.diff(self.ptr) > 0)
         return tri_dead, node_dead
 
+    def set_pair_state(self, state: np.ndarray) -> None:
+        """Return the slaves' pair state to ``state`` (a restored snapshot).
+
+        The candidate list is searched afresh at the next evaluation.
+        """
+        self.pair_state[:] = state
+        self._x_list = None
+
     def set_masses(self, m: np.ndarray) -> None:
         """Take the lumped masses of the body's nodes (3 per node; after mass scaling)."""
         self.mass = self._gather(m.reshape(-1, 3)[self.own_blocks])[:, 0].copy()
@@ -237,17 +241,15 @@ class SurfaceSelfContact:
         pair_shares(self.own_rows, hit, dist, bary, self.tris, share)
         if self.comm.size > 1:
             self.comm.Allreduce(MPI.IN_PLACE, share, op=MPI.SUM)
-        pairs, energy, deepest = penalty_residual(self.own_rows, hit, dist, bary, normal,
+        pairs, deepest = penalty_residual(self.own_rows, hit, dist, bary, normal,
                                                   self.tris, self.mass, vel, share,
                                                   self.spec.stiffness, self.spec.damping, dt,
                                                   self.pair_state, r)
         if self.comm.size > 1:
             self.comm.Allreduce(MPI.IN_PLACE, r, op=MPI.SUM)
-            both = np.array([pairs, energy], dtype=float)
-            self.comm.Allreduce(MPI.IN_PLACE, both, op=MPI.SUM)
-            pairs, energy = both
+            pairs = self.comm.allreduce(pairs, op=MPI.SUM)
             deepest = self.comm.allreduce(deepest, op=MPI.MAX)
-        self.pairs, self.energy = int(pairs), float(energy)
+        self.pairs = int(pairs)
         self.penetration = float(deepest)
         self.deepest = max(self.deepest, self.penetration)
         return r[self.own_rows]
@@ -340,7 +342,7 @@ class SelfContactTerm:
         """The term's owned entries as last evaluated."""
         return self.vec.x.array[: self.state.n_owned]
 
-    def touching_vector(self) -> np.ndarray:
+    def pair_state_vector(self) -> np.ndarray:
         """The slaves' pair state as an array of the body's vector (a snapshot).
 
         Per node: its triangle (-1: none), elastic normal force and signed distance.
@@ -349,6 +351,6 @@ class SelfContactTerm:
         out.reshape(-1, 3)[self.surface.own_blocks] = self.surface.pair_state
         return out
 
-    def set_touching_vector(self, arr: np.ndarray) -> None:
+    def set_pair_state_vector(self, arr: np.ndarray) -> None:
         """Return the slaves' pair state to a snapshot's."""
-        self.surface.pair_state[:] = arr.reshape(-1, 3)[self.surface.own_blocks]
+        self.surface.set_pair_state(arr.reshape(-1, 3)[self.surface.own_blocks])

@@ -303,10 +303,9 @@ def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, share, sc
         r: (n, 3) residual (internal minus external forces), added to.
 
     Returns:
-        (pairs in contact, stored penalty energy [N mm], deepest penetration [mm]).
+        (pairs in contact, deepest penetration [mm]).
     """
     count = 0
-    energy = 0.0
     deepest = 0.0
     for i in range(slaves.shape[0]):
         t = hit[i]
@@ -338,7 +337,6 @@ def penalty_residual(slaves, hit, dist, bary, normal, tris, mass, vel, share, sc
             r[s, c] -= fn * normal[i, c]
             for a in range(3):
                 r[tris[t, a], c] += bary[i, a] * fn * normal[i, c]
-        energy += 0.5 * elastic * elastic / k
         deepest = max(deepest, -dist[i])
         count += 1
-    return count, energy, deepest
+    return count, deepest

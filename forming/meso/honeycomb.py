@@ -27,6 +27,8 @@ from forming import compat
 from forming.errors import InputError
 from forming.mesh import MeshData
 
+WALL_DENSITY = 7.4e-10  # the cardboard walls' density, Table 1 [t/mm^3]
+
 
 @dataclass(frozen=True)
 class HoneycombCell:

@@ -352,14 +352,14 @@ class ExplicitSolver:
                 [loop.state() for loop in self._loop_list],
                 self.tau, self.ledger.state(), self.time_steps, self.dt, self._dt_ref,
                 self._omega2_ref, self._omega2_now,
-                [t.touching_vector() for t in self._selves])
+                [t.pair_state_vector() for t in self._selves])
 
     def restore(self, snap: tuple) -> None:
         """Return velocities, energies and time to a snapshot; history from the model."""
         (states, terms, tools, loops, self.tau, ledger, self.time_steps, self.dt, self._dt_ref,
-         self._omega2_ref, self._omega2_now, touching) = snap
-        for t, arr in zip(self._selves, touching, strict=True):
-            t.set_touching_vector(arr)
+         self._omega2_ref, self._omega2_now, pair_states) = snap
+        for t, arr in zip(self._selves, pair_states, strict=True):
+            t.set_pair_state_vector(arr)
         self.ledger.set_state(ledger)
         for st, (v, a, fi, fa) in zip(self.states, states, strict=True):
             st.v[:], st.a[:] = v, a
