@@ -173,13 +173,45 @@ def _sliding_sandwich(half_x: float, half_y: float, thickness: float, cells, cor
         Block("skin_top", (half_x, half_y, t), (r * nx, r * ny, skins.plies),
               origin=(0.0, 0.0, t + thickness)),
     ])
+    return _sliding_blank(mesh, thickness, core, skins)
+
+
+def _sliding_blank(mesh: MeshData, thickness: float, core, skins: Skins) -> Blank:
+    """The blank of a mesh whose core and skins share no nodes, the skins sliding on it."""
+    t = skins.plies * skins.fabric.thickness
     bodies = (Body("core", core, region="core"),
               *(Body(s, skins.fabric, region=s) for s in SKINS))
-    sliding = (Sliding("bottom", "core", "core_bottom", "skin_bottom", "skin_bottom_top",
-                       friction=skins.friction, transfer=skins.transfer,
-                       stabilisation=skins.stabilisation, smoothing=skins.smoothing),
-               Sliding("top", "core", "core_top", "skin_top", "skin_top_bottom",
-                       friction=skins.friction, transfer=skins.transfer,
-                       stabilisation=skins.stabilisation, smoothing=skins.smoothing))
+    sliding = tuple(Sliding(side, "core", f"core_{side}", f"skin_{side}",
+                            f"skin_{side}_{'top' if side == 'bottom' else 'bottom'}",
+                            friction=skins.friction, transfer=skins.transfer,
+                            stabilisation=skins.stabilisation, smoothing=skins.smoothing)
+                    for side in ("bottom", "top"))
     return Blank(mesh, bodies, (), thickness + 2 * t, 0.0, "skin_top", "skin_bottom",
                  sliding=sliding, prefixed=True)
+
+
+def outline_blank(outline, thickness: float, element_size: float, core_layers: int, core,
+                  skins: Skins | None = None) -> Blank:
+    """A blank of any outline (:class:`~forming.outline.Outline`): core or sandwich.
+
+    With finitely sliding skins each body is meshed on its own
+    (:func:`forming.layered.sliding_sandwich_mesh`, skins ``skins.refinement`` times
+    finer); with small sliding, one conforming mesh (:func:`forming.sandwich.sandwich_blank`).
+    """
+    from forming.sandwich import sandwich_blank
+
+    if skins is None:
+        mesh = sandwich_blank(outline, core_thickness=thickness, plies=0,
+                              element_size=element_size, core_layers=core_layers)
+        return core_blank(mesh, core, thickness)
+    if skins.contact == "finite":
+        from forming.layered import sliding_sandwich_mesh
+
+        mesh = sliding_sandwich_mesh(outline, thickness, skins.fabric.thickness, skins.plies,
+                                     element_size, core_layers, skins.refinement)
+        return _sliding_blank(mesh, thickness, core, skins)
+    mesh = sandwich_blank(outline, core_thickness=thickness,
+                          skin_thickness=skins.fabric.thickness, plies=skins.plies,
+                          element_size=element_size, core_layers=core_layers)
+    return sandwich(mesh, core, skins.fabric, thickness, skins.plies, friction=skins.friction,
+                    stabilisation=skins.stabilisation, smoothing=skins.smoothing)

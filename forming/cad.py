@@ -69,8 +69,15 @@ def orient_outward(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     for i in range(len(order) - 1):
         if ks[i] == ks[i + 1]:
             e1, e2 = order[i] // 3, order[i + 1] // 3
-            pairs.setdefault(e1, []).append((e2, order[i] % 3, order[i + 1] % 3))
-            pairs.setdefault(e2, []).append((e1, order[i + 1] % 3, order[i] % 3))
+            u, w = int(a[order[i]]), int(b[order[i]])
+            pairs.setdefault(e1, []).append((e2, u, w))
+            pairs.setdefault(e2, []).append((e1, u, w))
+
+    def forward(f: int, u: int, w: int) -> bool:
+        """Whether face f (as it is now) runs from vertex u to vertex w."""
+        k = int(np.flatnonzero(faces[f] == u)[0])
+        return bool(faces[f, (k + 1) % 3] == w)
+
     seen = np.zeros(len(faces), dtype=bool)
     for start in range(len(faces)):
         if seen[start]:
@@ -79,11 +86,11 @@ def orient_outward(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
         queue = deque([start])
         while queue:
             f = queue.popleft()
-            for g, kf, kg in pairs.get(f, ()):
+            for g, u, w in pairs.get(f, ()):
                 if seen[g]:
                     continue
                 # consistent: the shared edge runs opposite ways in f and g
-                if faces[f, kf] == faces[g, kg]:
+                if forward(f, u, w) == forward(g, u, w):
                     faces[g] = faces[g, [0, 2, 1]]
                 seen[g] = True
                 queue.append(g)
