@@ -191,6 +191,30 @@ def _study(args: argparse.Namespace) -> int:
     return 0 if r["completed"] == r["runs"] else 1
 
 
+def _optimise_blank(args: argparse.Namespace) -> int:
+    from mpi4py import MPI
+
+    from forming.case import guarded
+    from forming.demonstrator.develop import optimise_blank
+    from forming.log import setup
+
+    setup(quiet=args.quiet)
+    comm = MPI.COMM_WORLD
+    out = args.out or Path("results") / f"{args.case}_blank"
+    r, code = guarded(comm, lambda: optimise_blank(args.case, out, args.assignments,
+                                                   args.tolerance, args.max_runs,
+                                                   args.margin))
+    if code is not None:
+        return code
+    if comm.rank == 0:
+        devs = ", ".join(f"{d:.3g}" for d in r["trim_deviation_max_mm"])
+        state = "converged" if r["converged"] else "not converged"
+        print(f"{args.case}: blank {state} in {r['iterations']} runs (formed edge to trim "
+              f"line, largest: {devs} mm; tolerance {args.tolerance:g} mm)")
+        print(f"outputs in {Path(out).resolve()}")
+    return 0 if r["converged"] else 1
+
+
 def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("case", help="case name (forming list)")
     parser.add_argument("--vary", action="append", required=True, metavar="KEY=V1,V2,...",
@@ -291,6 +315,19 @@ def main(argv: list[str] | None = None) -> None:
     cal.add_argument("--no-shear", action="store_true",
                      help="skip the two transverse shear runs (the shear moduli)")
     cal.add_argument("--quiet", action="store_true", help="warnings and errors only")
+    opt = sub.add_parser("optimise-blank", help="net-shape blank: form, map the trim line "
+                                                "back, re-mesh, until the edge meets it")
+    opt.add_argument("case", help="a case with a blank outline and a trim line (demonstrator)")
+    opt.add_argument("--out", type=Path, default=None,
+                     help="output folder (default results/<case>_blank); resumed if it holds runs")
+    opt.add_argument("--set", dest="assignments", action="append", default=[],
+                     metavar="KEY=VALUE", help="set a parameter of the case (repeatable)")
+    opt.add_argument("--tolerance", type=float, default=2.0,
+                     help="largest distance of the formed edge to the trim line [mm]")
+    opt.add_argument("--max-runs", type=int, default=4, help="simulations at most")
+    opt.add_argument("--margin", type=float, default=0.0,
+                     help="added outside the mapped trim line [mm] (0: net shape)")
+    opt.add_argument("--quiet", action="store_true", help="warnings and errors only")
     args, extra = parser.parse_known_args(argv)
     if args.command == "study":
         if extra:
@@ -304,6 +341,10 @@ def main(argv: list[str] | None = None) -> None:
         if extra:
             parser.error(f"unrecognized arguments: {' '.join(extra)}")
         raise SystemExit(_drape(args))
+    if args.command == "optimise-blank":
+        if extra:
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        raise SystemExit(_optimise_blank(args))
     if args.command == "list":
         raise SystemExit(_list())
     if args.command == "run":

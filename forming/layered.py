@@ -42,7 +42,9 @@ def quadrilaterals(gmsh, outline: Outline, size: float) -> tuple[np.ndarray, np.
         if outline.kind == "spline":
             curves = [geo.addSpline(pts + [pts[0]])]
         else:
-            curves = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+            curves = [geo.addSpline([pts[i % len(pts)] for i in range(a, b + 1)]) if b > a + 1
+                      else geo.addLine(pts[a], pts[b % len(pts)])
+                      for a, b in _runs(np.asarray(outline.points), size)]
         surface = geo.addPlaneSurface([geo.addCurveLoop(curves)])
         geo.synchronize()
         gmsh.model.mesh.setRecombine(2, surface)
@@ -76,6 +78,28 @@ def quadrilaterals(gmsh, outline: Outline, size: float) -> tuple[np.ndarray, np.
     if np.any(e0[..., 0] * e1[..., 1] - e0[..., 1] * e1[..., 0] <= 0):
         raise InputError("mesh.outline", "gmsh produced inverted quadrilaterals")
     return xy, quads
+
+
+def _runs(points: np.ndarray, size: float) -> list[tuple[int, int]]:
+    """The outline's curves as (first, last) point indices (last may wrap past the end).
+
+    Edges shorter than half the element size come in runs that become one spline through
+    their points (a densely sampled curve, such as a developed blank), so the element
+    size, not the sampling, sets the mesh; every other edge is a line.
+    """
+    n = len(points)
+    short = np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1) < 0.5 * size
+    if short.all():
+        return [(0, n)]  # one closed spline
+    start = int(np.flatnonzero(~short)[0])  # begin after a long edge
+    runs, i = [], start
+    while i < start + n:
+        j = i + 1
+        while short[i % n] and j < start + n and short[j % n]:
+            j += 1
+        runs.append((i, j))
+        i = j
+    return runs
 
 
 def _boundary_edges(quads: np.ndarray) -> np.ndarray:

@@ -65,6 +65,9 @@ class FabricBody(BodyBase):
         W = fem.functionspace(msh, ("DG", 0))
         self.shear_angle = fem.Function(W, name="shear_angle_deg")
         self.wrinkling = fem.Function(W, name="wrinkling")
+        # the shorter tow's strain: below zero the fibres are compressed in plane
+        # (the bundle-wrinkling risk of an NCF)
+        self.fibre_strain = fem.Function(W, name="fibre_strain_min")
         dx0 = ufl.Measure("dx", domain=msh, metadata={"quadrature_degree": 0})
         self._wrinkle_forms = (fem.form(self.wrinkling * dx0),
                                fem.form(fem.Constant(msh, 1.0) * dx0))
@@ -73,6 +76,8 @@ class FabricBody(BodyBase):
         self._gamma_expr = fem.Expression(gamma * 180.0 / np.pi, pts)
         self._wrinkle_expr = fem.Expression(mat.wrinkling_indicator(gamma), pts)
         self._detF_expr = fem.Expression(ufl.det(F), pts)
+        lam1, lam2 = mat.fibre_stretches(F)
+        self._fibre_expr = fem.Expression(ufl.min_value(lam1, lam2) - 1.0, pts)
 
     def residual(self, v) -> ufl.Form:
         """Internal virtual work: the first variation of the strain energy."""
@@ -102,13 +107,14 @@ class FabricBody(BodyBase):
 
     # -- outputs -------------------------------------------------------------------------
     def update_output(self) -> None:
-        """Evaluate the shear angle and wrinkling indicator at the cell centres."""
+        """Evaluate the shear angle, wrinkling indicator and fibre strain at the centres."""
         self.shear_angle.interpolate(self._gamma_expr)
         self.wrinkling.interpolate(self._wrinkle_expr)
+        self.fibre_strain.interpolate(self._fibre_expr)
 
     def output_fields(self) -> dict[str, list[fem.Function]]:
         """ParaView fields besides the displacement: file stem -> functions."""
-        return {"shear_angle": [self.shear_angle, self.wrinkling]}
+        return {"shear_angle": [self.shear_angle, self.wrinkling, self.fibre_strain]}
 
     def cell_fields(self) -> dict[str, np.ndarray]:
         """The owned cells' shear angles [deg] at the current state."""

@@ -219,7 +219,8 @@ def _section_figure(extent: tuple[float, float, float, float]) -> Figure:
 def section_plot(path: Path, polygons: list[np.ndarray], values: np.ndarray,
                  tools: list[tuple[str, Shape, np.ndarray]], plane: tuple[int, float],
                  axes: tuple[int, int], *, label: str, title: str, mirror: bool = False,
-                 vmin: float | None = None, vmax: float | None = None) -> Path:
+                 vmin: float | None = None, vmax: float | None = None,
+                 extra: list[np.ndarray] = ()) -> Path:
     """Save a PNG of a section through the body, coloured by a cell value, with the tools.
 
     Args:
@@ -236,6 +237,7 @@ def section_plot(path: Path, polygons: list[np.ndarray], values: np.ndarray,
             zero (a quarter model shown as a half section).
         vmin: Lower colour limit (default: the smallest value).
         vmax: Upper colour limit (default: the largest value).
+        extra: Further polygons drawn dark, uncoloured (thin layers such as skins).
 
     Returns:
         ``path``.
@@ -254,6 +256,10 @@ def section_plot(path: Path, polygons: list[np.ndarray], values: np.ndarray,
                            linewidths=0.3, zorder=2)
     cells.set_clim(vmin, vmax)
     ax.add_collection(cells)
+    if len(extra):
+        layers, _v = _section_polygons(list(extra), np.zeros(len(extra)), mirror)
+        ax.add_collection(PolyCollection(layers, facecolors="0.15", edgecolors="0.15",
+                                         linewidths=0.3, zorder=2.5))
     fig.colorbar(cells, cax=ax.inset_axes((1.03, 0.0, 0.03, 1.0)), label=label)
     handles = [_draw_tool(ax, *_section_distance(shape, offset, plane, axes, extent, mirror),
                           name, _TOOL_LINES[i % len(_TOOL_LINES)])

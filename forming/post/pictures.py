@@ -66,12 +66,13 @@ def section_polygons(body: SolidBody, facet_tags, tag: int, axes: tuple[int, int
     return all_polys, all_vals
 
 
-def deformed_grid(body: SolidBody, cell_values: dict[str, np.ndarray]):
+def deformed_grid(body: SolidBody, cell_values: dict[str, np.ndarray], scale: float = 1.0):
     """A pyvista grid of the deformed body (owned cells of every rank) on rank 0.
 
     Args:
         body: The body (hexahedra or tetrahedra).
         cell_values: Arrays of one value per owned cell, attached as cell data.
+        scale: Factor on the displacement (0: the reference configuration).
     """
     msh = body.mesh
     comm = msh.comm
@@ -81,7 +82,7 @@ def deformed_grid(body: SolidBody, cell_values: dict[str, np.ndarray]):
     geo = mesh.entities_to_geometry(msh, tdim, cells)
     x = msh.geometry.x[geo]
     disp = _eval_at(body.u, x.reshape(-1, 3), np.repeat(cells, x.shape[1]))
-    xd = (x + disp.reshape(x.shape))
+    xd = (x + scale * disp.reshape(x.shape))
     gathered = comm.gather((xd, {k: v[:n] for k, v in cell_values.items()}), root=0)
     if comm.rank != 0:
         return None

@@ -1,0 +1,109 @@
+"""The demonstrator: a flat sandwich blank pressed between matched tools into a curved part.
+
+The paper's application (sections "Demonstrator forming simulation" to "Forming-induced
+defects", Figs. 13-16). Its component is not published, so the shipped part is our own
+in its spirit (docs/theory.md, section 16; :mod:`forming.demonstrator.geometry`): a
+600 x 480 mm dished panel, 30 mm deep with a doubly curved bottom, formed from a
+720 x 590 mm blank of a 20 mm C365 core between two +/-45 deg FCIM359 plies. The matched
+tools crush the core to 7 mm on the flange and to 8 mm in two pads on the dish bottom;
+the tool radii are 20-60 mm. Friction: tool-fabric 0.23, fabric-core 0.52 (paper). The
+lower tool is fixed; the upper one closes along -z from just above the blank. Quarter
+model (the part is symmetric about x = 0 and y = 0).
+
+The case forms any matched pair: ``--set lower_tool=FILE --set upper_tool=FILE`` (STEP,
+IGES, STL, OBJ, ...; closed solids in their closed position, in mm or with
+``tool_scale``), ``--set blank=FILE`` (a CSV of x, y points of the blank's outline,
+symmetric about both axes), ``--set trim=FILE`` (the finished part's outline), and the
+core thickness, plies and fibre angles. The shipped tools are written on first use under
+``meshes/generated/demonstrator-*`` by ``python meshes/demonstrator_tools.py``.
+
+Outputs, besides the usual: each skin's shear map with the wrinkling limits (+42 / -50
+deg), the conformity map (gap between each skin and its tool at the end; bridged area
+where it exceeds ``bridging_gap``), the core's thickness and crushing maps, a section
+through y = 0 (tools, skins and core with the crushing strain), the blank edge's
+draw-in and the closing force against the stroke.
+
+Run: ``python cases/demonstrator.py`` (``mpirun -n 2`` works the same).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from forming.blanks import Skins, outline_blank
+from forming.case import main, require
+from forming.demonstrator import setup
+from forming.demonstrator.report import Report
+from forming.errors import InputError
+from forming.job import Job, Response
+from forming.materials.fabric import NonCrimpFabric
+from forming.materials.library import honeycomb_core
+from forming.scene import Scene
+from forming.solver.options import ExplicitOptions, NewtonOptions
+from forming.solver.stepping import StepControl
+
+TOOL_FABRIC_FRICTION = 0.23  # paper, section "Friction between materials"
+FABRIC_CORE_FRICTION = 0.52
+
+
+@dataclass(frozen=True)
+class Params:
+    """Parameters of the demonstrator forming case (mm)."""
+
+    lower_tool: str | None = None  # lower tool file, closed position; none: shipped part
+    upper_tool: str | None = None  # upper tool file, closed position; none: shipped part
+    tool_scale: float = 1.0  # factor from the tool files' units to mm
+    blank: str | None = None  # blank outline CSV (x, y); none: 720 x 590 rectangle
+    trim: str | None = None  # trim line CSV (x, y); none: the shipped part's
+    core_thickness: float = 20.0  # core thickness [mm] (paper: 20)
+    plies: int = 1  # plies per skin (paper: one)
+    ply_thickness: float = 0.4  # ply thickness [mm]
+    fibre_angles: tuple[float, ...] = (45.0, -45.0)  # fibre directions from x [deg]
+    tool_friction: float = TOOL_FABRIC_FRICTION  # tool-skin Coulomb coefficient (paper: 0.23)
+    skin_friction: float = FABRIC_CORE_FRICTION  # skin-core Coulomb coefficient (paper: 0.52)
+    element_size: float = 30.0  # core element size in plan [mm]
+    core_layers: int = 2  # core elements through the thickness
+    skin_refinement: int = 1  # skin elements per core element in plan
+    clearance: float = 1.0  # gap between the open upper tool and the blank [mm]
+    bridging_gap: float = 0.5  # a skin farther than this from its tool is bridging [mm]
+    curve: str | None = None  # C365 curve CSV; none: shipped estimate
+    viscosity: float = 0.15  # core viscous regularisation [MPa mm]
+    max_step: float = 0.01  # largest load step (fraction of the stroke)
+    min_step: float = 1e-4  # smallest load step
+    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
+
+
+def build(p: Params) -> Job:
+    require(p, positive=("tool_scale", "core_thickness", "ply_thickness", "element_size",
+                         "bridging_gap"),
+            nonnegative=("tool_friction", "skin_friction", "clearance"))
+    if len(p.fibre_angles) != 2:
+        raise InputError("--set fibre_angles", f"two angles, got {p.fibre_angles}")
+    part = setup.Part.from_params(p.lower_tool, p.upper_tool, p.tool_scale, p.blank, p.trim,
+                                  p.core_thickness + 2 * p.plies * p.ply_thickness)
+    fabric = NonCrimpFabric(thickness=p.ply_thickness, fibre_angles_deg=tuple(p.fibre_angles))
+    skins = Skins(fabric, p.plies, p.skin_friction, 1e-3, 0.1, "finite", p.skin_refinement)
+    b = outline_blank(part.quarter, p.core_thickness, p.element_size, p.core_layers,
+                      honeycomb_core("isotropic", curve=p.curve, viscosity=p.viscosity), skins)
+    tools, contacts, stroke = setup.matched_tools(part, b, p.tool_friction, p.clearance)
+    scene = Scene(name="demonstrator", mesh=b.mesh, bodies=b.bodies,
+                  displacements=b.symmetry(), tools=tools, contacts=contacts,
+                  sliding=b.sliding, symmetry_copies=4)
+    report = Report(part, b, stroke, p.bridging_gap, p.core_thickness,
+                    fabric.critical_angles_deg)
+    return Job(scene=scene, steps=StepControl(initial=min(0.02, p.max_step), max=p.max_step,
+                                              min=min(p.min_step, p.max_step)),
+               # skins touch tools and core at zero pressure: full Newton steps with the
+               # l2 line search, as the hemisphere with sliding skins (docs/theory.md, 11);
+               # the first touch of the upper tool's pads took 25-35 iterations
+               newton=NewtonOptions(linear_solver=p.linear_solver, line_search="l2",
+                                    max_it=40),
+               explicit=ExplicitOptions(loading_time=0.05),
+               probe=setup.probe, metrics=report.metrics, plots=report.plots,
+               pictures=report.pictures, field_every=5,
+               response=Response("force_upper_z_N", stroke, label="closing force"))
+
+
+if __name__ == "__main__":
+    main(build, Params, "demonstrator")
