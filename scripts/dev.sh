@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Developer entry point for `forming`.
 #
-# Usage: scripts/dev.sh {main|test|validate|bench|shell} [args...]
+# Usage: scripts/dev.sh {main|core|test|validate|bench|shell} [args...]
 #
 # Ensures the repo-local venv (.venv) exists and matches requirements.lock +
 # pyproject.toml (reinstall only when their sha256 changes), sets up the runtime
@@ -13,7 +13,7 @@ venv="$repo/.venv"
 stamp="$venv/.forming-stamp"
 
 usage() {
-    echo "usage: scripts/dev.sh {main|test|validate|bench|shell} [args...]" >&2
+    echo "usage: scripts/dev.sh {main|core|test|validate|bench|shell} [args...]" >&2
     exit 2
 }
 
@@ -101,7 +101,7 @@ ensure_venv() {
 cmd="$1"
 shift
 case "$cmd" in
-    main | test | validate | bench | shell) ;;
+    main | core | test | validate | bench | shell) ;;
     -h | --help | help) usage ;;
     *) echo "dev.sh: unknown command: $cmd" >&2; usage ;;
 esac
@@ -120,6 +120,16 @@ export PATH="$venv/bin:$PATH"   # so mpirun (mpich wheel) and `forming` resolve 
 cd "$repo"
 case "$cmd" in
     main)
+        # the product's main job: the demonstrator part on a coarse mesh, 2 ranks
+        # (about 2 minutes); the core's compression test is `dev.sh core`
+        out=results/demonstrator_main
+        "$venv/bin/mpirun" -n 2 "$venv/bin/forming" run demonstrator --out "$out" \
+            --set element_size=60 "$@" || exit $?
+        for png in shear_angle_map conformity_map section_y0; do
+            echo "  $png: $out/$png.png"
+        done
+        ;;
+    core)
         exec "$venv/bin/forming" run core_compression --out results/core_compression "$@"
         ;;
     test)

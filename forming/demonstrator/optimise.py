@@ -9,7 +9,7 @@ triangle's affine map extrapolates). The trim line, resampled every ``SPACING``,
 mapped back and offset outward by the margin, becomes the next blank: a closed
 centripetal Catmull-Rom spline sampled densely. The run repeats until the formed edge
 lies within the tolerance of the trim line everywhere (the largest plan distance of the
-formed edge's faces to the trim line; the trim line lies on the part's flange, where
+formed edge's nodes to the trim line; the trim line lies on the part's flange, where
 plan and surface distances agree).
 """
 
@@ -34,7 +34,7 @@ class FormingMap:
     Attributes:
         flat: Triangles in the flat blank (m, 3, 2) [mm].
         formed: The same triangles after forming (m, 3, 2) [mm].
-        edge: Formed blank edge points in plan (k, 2) [mm] (quarter).
+        edge: Formed blank edge nodes in plan (k, 2) [mm] (quarter).
         trim: The trim line (n, 2) [mm].
         blank: The blank outline the run formed (b, 2) [mm].
     """
@@ -57,7 +57,9 @@ class FormingMap:
         flat = _triangles(d["reference"][:, :, :2])
         formed = _triangles(d["current"][:, :, :2])
         mirror = [np.asarray(c) for c in COPIES]
-        edge = d["edge_current"][:, :, :2].mean(axis=1)
+        # the edge's nodes (the face corners): the mesh's outline passes through them,
+        # where face centres sit a chord's sagitta inside a rounded corner
+        edge = np.unique(d["edge_current"][:, :, :2].reshape(-1, 2), axis=0)
         return cls(np.concatenate([flat * c for c in mirror]),
                    np.concatenate([formed * c for c in mirror]), edge, d["trim"], d["blank"])
 
