@@ -124,6 +124,22 @@ def _quiet_stdout():
             os.close(saved)
 
 
+@contextlib.contextmanager
+def gmsh_session():
+    """gmsh, initialised quietly for the block (and finalised after it if it was not before)."""
+    import gmsh
+
+    started = gmsh.isInitialized()
+    if not started:
+        gmsh.initialize(["-noenv"], readConfigFiles=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    try:
+        yield gmsh
+    finally:
+        if not started:
+            gmsh.finalize()
+
+
 def write_tool(gmsh, stem: Path, tess: Tessellation) -> tuple[Path, Path]:
     """Write the current gmsh model as ``stem.step`` and its triangulation as ``stem.stl``."""
     import meshio
@@ -185,17 +201,11 @@ def hemisphere_tool_files(directory: Path, tools: HemisphereToolSet,
     Returns:
         The STL path of each tool.
     """
-    import gmsh
-
     punch_radius, punch_length = tools.punch_radius, tools.punch_length
     hole_radius, edge_radius = tools.hole_radius, tools.edge_radius
     plate_radius, thickness = tools.plate_radius, tools.thickness
-    started = gmsh.isInitialized()
-    if not started:
-        gmsh.initialize(["-noenv"], readConfigFiles=False)
-    gmsh.option.setNumber("General.Terminal", 0)
     out = {}
-    try:
+    with gmsh_session() as gmsh:
         occ = gmsh.model.occ
         gmsh.model.add("punch")
         R = punch_radius
@@ -216,7 +226,4 @@ def hemisphere_tool_files(directory: Path, tools: HemisphereToolSet,
             occ.synchronize()
             out[name] = write_tool(gmsh, directory / name, tess)[1]
             gmsh.model.remove()
-    finally:
-        if not started:
-            gmsh.finalize()
     return out

@@ -215,3 +215,28 @@ def test_trim_line_maps_back_to_the_developed_outline_of_a_cylinder(tmp_path):
     # the formed edge (x = R sin(380 / R)) is this far outside the trim line
     dev = fmap.deviation()
     assert dev.max() == pytest.approx(radius * np.sin(380.0 / radius) - 300.0, rel=1e-6)
+
+
+@pytest.mark.slow
+def test_demonstrator_closes_the_tools_and_reaches_the_cavity(tmp_path):
+    """The shipped part on the 60 mm mesh (the main job's), serial: the tools close, the
+    skins stay out of them (penetration within the contact tolerance), the flange's core
+    is crushed to the cavity's 7 mm within 10%, no skin shears past the wrinkling angles
+    (the part's shear stays within +-25 deg on this mesh), and the draw-in is a few
+    mm. A failure means the matched tools, the sliding skins or the measurements of
+    forming/demonstrator/report.py have broken. About 3 minutes: ``scripts/dev.sh
+    validate``."""
+    from forming.case import run_case
+
+    s = run_case("demonstrator", tmp_path, ["element_size=60"])
+    assert s["status"] == "completed", s["reason"]
+    m = s["metrics"]
+    assert m["closed_fraction"] == 1.0
+    assert m["max_penetration_mm"] <= 1.01 * m["penetration_tolerance_mm"]
+    assert m["core_thickness_min_mm"] == pytest.approx(Component().flange_core, rel=0.10)
+    assert -25.0 < m["shear_min_deg"] < 0.0 < m["shear_max_deg"] < 25.0
+    assert 0.0 < m["edge_draw_in_max_mm"] < 20.0
+    for png in ("shear_angle_map", "conformity_map", "core_thickness_map", "draw_in_map",
+                "fibre_compression_map", "section_y0", "closing_force"):
+        assert (tmp_path / f"{png}.png").is_file(), png
+    assert (tmp_path / "forming_map.npz").is_file()

@@ -52,32 +52,41 @@ def _plan(ax, polygons: np.ndarray, values: np.ndarray, part: Part, *, title: st
     ax.legend(loc="lower right", fontsize="x-small")
 
 
+def _skins(out: Path, name: str, a: dict, part: Part, what, **style) -> Path:
+    """Both skins' tool-side faces side by side; ``what(faces) -> (values, marked, title)``."""
+    fig, axes = _figure(2)
+    for ax, skin in zip(axes, ("skin_top", "skin_bottom"), strict=True):
+        faces = a["fields"][skin][0]
+        values, marked, title = what(faces)
+        _plan(ax, faces.polygons, values, part, marked=marked,
+              title=f"{skin.replace('_', ' ')}: {title}", **style)
+    return _save(fig, out / name)
+
+
 def shear_map(out: Path, a: dict, limits: tuple[float, float], part: Part) -> Path:
     """Both skins' shear angles, the cells beyond the wrinkling angles outlined."""
-    fig, axes = _figure(2)
     hi, lo = limits
-    for ax, name in zip(axes, ("skin_top", "skin_bottom"), strict=True):
-        faces = a["fields"][name][0]
+    bound = max(abs(lo), abs(hi), *(float(np.abs(a["fields"][s][0].value("shear")).max(
+        initial=0.0)) for s in ("skin_top", "skin_bottom")))
+
+    def what(faces):
         gamma = faces.value("shear")
-        bound = max(abs(lo), abs(hi), float(np.abs(gamma).max(initial=0.0)))
-        _plan(ax, faces.polygons, gamma, part, cmap="coolwarm", clim=(-bound, bound),
-              marked=(gamma > hi) | (gamma < lo),
-              title=f"{name.replace('_', ' ')}: shear angle\n(outlined: beyond "
-                    f"{hi:+g} / {lo:+g} deg)", label="shear angle [deg]")
-    return _save(fig, out / "shear_angle_map.png")
+        return gamma, (gamma > hi) | (gamma < lo), \
+            f"shear angle\n(outlined: beyond {hi:+g} / {lo:+g} deg)"
+
+    return _skins(out, "shear_angle_map.png", a, part, what, cmap="coolwarm",
+                  clim=(-bound, bound), label="shear angle [deg]")
 
 
 def fibre_map(out: Path, a: dict, threshold: float, part: Part) -> Path:
     """Both skins' shorter-tow strain; compressed cells outlined (bundle wrinkling risk)."""
-    fig, axes = _figure(2)
-    for ax, name in zip(axes, ("skin_top", "skin_bottom"), strict=True):
-        faces = a["fields"][name][0]
+    def what(faces):
         strain = faces.value("fibre")
-        _plan(ax, faces.polygons, 100 * strain, part, cmap="RdBu", clim=(-1.0, 1.0),
-              marked=strain < -threshold,
-              title=f"{name.replace('_', ' ')}: shorter tow's strain\n(outlined: below "
-                    f"-{100 * threshold:g}%)", label="fibre strain [%]")
-    return _save(fig, out / "fibre_compression_map.png")
+        return 100 * strain, strain < -threshold, \
+            f"shorter tow's strain\n(outlined: below -{100 * threshold:g}%)"
+
+    return _skins(out, "fibre_compression_map.png", a, part, what, cmap="RdBu",
+                  clim=(-1.0, 1.0), label="fibre strain [%]")
 
 
 def conformity_map(out: Path, a: dict, bridging: float, part: Part) -> Path:

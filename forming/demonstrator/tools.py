@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from forming.cad import Tessellation, write_tool
+from forming.cad import Tessellation, gmsh_session, write_tool
 from forming.demonstrator.geometry import Component
 from forming.errors import InputError
 
@@ -110,15 +110,9 @@ def tool_files(directory: Path, component: Component, tess: Tessellation | None 
     Returns:
         The STL of each tool and the trim CSV (keys ``lower``, ``upper``, ``trim``).
     """
-    import gmsh
-
     tess = tess or Tessellation(angle=4.0, max_size=12.0)
-    started = gmsh.isInitialized()
-    if not started:
-        gmsh.initialize(["-noenv"], readConfigFiles=False)
-    gmsh.option.setNumber("General.Terminal", 0)
     out = {}
-    try:
+    with gmsh_session() as gmsh:
         for name in ("lower", "upper"):
             gmsh.model.add(f"demonstrator_{name}")
             try:
@@ -126,8 +120,5 @@ def tool_files(directory: Path, component: Component, tess: Tessellation | None 
                 out[name] = write_tool(gmsh, Path(directory) / name, tess)[1]
             finally:
                 gmsh.model.remove()
-    finally:
-        if not started:
-            gmsh.finalize()
     out["trim"] = write_trim(Path(directory) / "trim.csv", component)
     return out
