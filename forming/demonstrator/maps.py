@@ -66,13 +66,15 @@ def _skins(out: Path, name: str, a: dict, part: Part, what, **style) -> Path:
 def shear_map(out: Path, a: dict, limits: tuple[float, float], part: Part) -> Path:
     """Both skins' shear angles, the cells beyond the wrinkling angles outlined."""
     hi, lo = limits
-    bound = max(abs(lo), abs(hi), *(float(np.abs(a["fields"][s][0].value("shear")).max(
-        initial=0.0)) for s in ("skin_top", "skin_bottom")))
+    # the colours span the shear found (the limits would wash out a mild part's map)
+    bound = max(5.0, *(float(np.abs(a["fields"][s][0].value("shear")).max(initial=0.0))
+                       for s in ("skin_top", "skin_bottom")))
 
     def what(faces):
         gamma = faces.value("shear")
         return gamma, (gamma > hi) | (gamma < lo), \
-            f"shear angle\n(outlined: beyond {hi:+g} / {lo:+g} deg)"
+            f"shear angle, {gamma.min():+.1f} to {gamma.max():+.1f} deg\n(outlined: " \
+            f"beyond the wrinkling limits {hi:+g} / {lo:+g} deg)"
 
     return _skins(out, "shear_angle_map.png", a, part, what, cmap="coolwarm",
                   clim=(-bound, bound), label="shear angle [deg]")
