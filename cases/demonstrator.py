@@ -66,6 +66,7 @@ class Params:
     core_layers: int = 2  # core elements through the thickness
     skin_refinement: int = 1  # skin elements per core element in plan
     clearance: float = 1.0  # gap between the open upper tool and the blank [mm]
+    contact_tolerance: float | None = None  # skin-tool penetration allowed [mm]; none: 1% ply
     bridging_gap: float = 0.5  # a skin farther than this from its tool is bridging [mm]
     curve: str | None = None  # C365 curve CSV; none: shipped estimate
     viscosity: float = 0.15  # core viscous regularisation [MPa mm]
@@ -78,6 +79,7 @@ def build(p: Params) -> Job:
     require(p, positive=("tool_scale", "core_thickness", "ply_thickness", "element_size",
                          "bridging_gap"),
             nonnegative=("tool_friction", "skin_friction", "clearance"))
+    require(p, positive=("contact_tolerance",) if p.contact_tolerance is not None else ())
     if len(p.fibre_angles) != 2:
         raise InputError("--set fibre_angles", f"two angles, got {p.fibre_angles}")
     part = setup.Part.from_params(p.lower_tool, p.upper_tool, p.tool_scale, p.blank, p.trim,
@@ -86,7 +88,8 @@ def build(p: Params) -> Job:
     skins = Skins(fabric, p.plies, p.skin_friction, 1e-3, 0.1, "finite", p.skin_refinement)
     b = outline_blank(part.quarter, p.core_thickness, p.element_size, p.core_layers,
                       honeycomb_core("isotropic", curve=p.curve, viscosity=p.viscosity), skins)
-    tools, contacts, stroke = setup.matched_tools(part, b, p.tool_friction, p.clearance)
+    tools, contacts, stroke = setup.matched_tools(part, b, p.tool_friction, p.clearance,
+                                                  p.contact_tolerance)
     scene = Scene(name="demonstrator", mesh=b.mesh, bodies=b.bodies,
                   displacements=b.symmetry(), tools=tools, contacts=contacts,
                   sliding=b.sliding, symmetry_copies=4)

@@ -118,9 +118,12 @@ def _extreme_z(tool: SurfaceTool, blank: Outline, highest: bool) -> float:
     return float(z.max() if highest else z.min())
 
 
-def matched_tools(part: Part, blank: Blank, friction: float, clearance: float
+def matched_tools(part: Part, blank: Blank, friction: float, clearance: float,
+                  tolerance: float | None = None
                   ) -> tuple[tuple[Tool, ...], tuple[Contact, ...], float]:
     """The lower (fixed) and upper (closing) tools and their contacts with the skins.
+
+    ``tolerance``: the contacts' admissible penetration [mm] (None: the contact's default).
 
     Returns:
         Tools, contacts and the closing stroke [mm].
@@ -141,9 +144,9 @@ def matched_tools(part: Part, blank: Blank, friction: float, clearance: float
     upper = SurfaceTool(part.upper, scale=part.scale, translate=(0.0, 0.0, shift + stroke))
     tools = (Tool("lower", lower), Tool("upper", upper, z=Linear(-stroke)))
     contacts = (Contact(blank.upper, blank.face(blank.upper, "top"), "upper",
-                        friction=friction, stick="elastic_slip"),
+                        friction=friction, stick="elastic_slip", tolerance=tolerance),
                 Contact(blank.lower, blank.face(blank.lower, "bottom"), "lower",
-                        friction=friction, stick="elastic_slip"))
+                        friction=friction, stick="elastic_slip", tolerance=tolerance))
     return tools, contacts, stroke
 
 
