@@ -244,3 +244,32 @@ def test_hemisphere_with_sliding_skins_on_two_ranks_equals_serial(tmp_path):
     assert proc.returncode == 0, proc.stderr[-2000:]
     _same_histories(tmp_path / "serial", tmp_path / "mpi",
                     ("force_punch_z_N", "sliding_top_x_N", "sliding_bottom_z_N"))
+
+
+def test_a_node_let_go_beyond_the_master_edge_is_not_a_violation(tmp_path):
+    """A slave node whose closest point lies a whole fade width beyond the master's open
+    edge carries no force (the kernel fades it out), so its penetration must not count
+    as a constraint violation, and its multiplier is dropped; the same penetration on
+    the master counts in full (1 mm). Counted beyond the edge, it held the one-loop
+    Uzawa test at 96 tolerances and a demonstrator run stopped at 28.6 mm."""
+    from forming.contact.slidekernels import FADE
+
+    job = Job(scene=_sled(drag=1.0), steps=StepControl(initial=0.5, max=0.5))
+    sim = Simulation(job, tmp_path)
+    c = sim.model.sliding[0]
+    facet = int(np.flatnonzero(c.master.open_sides[:, 1] > 0)[0])  # an edge at xi = +1
+    c.facet[:] = facet
+    c.gap[:] = np.inf
+    c.lam_n[:] = 0.0
+    c.p_new[:] = 0.0
+    c.gap[0], c.p_new[0] = -1.0, c.penalty * 1.0  # 1 mm into the master
+    c.xi[0] = (0.0, 0.0)
+    assert c.violation() == pytest.approx(1.0)
+    c.xi[0] = (1.0 + 1.5 * FADE, 0.0)  # let go entirely
+    assert c.violation() == 0.0
+    c.lam_n[0] = 5.0
+    c.augment()
+    assert c.lam_n[0] == 0.0
+    c.xi[0] = (1.0 + 0.5 * FADE, 0.0)  # half let go: half counts
+    c.lam_n[0] = 0.0
+    assert c.violation() == pytest.approx(0.5)
