@@ -29,7 +29,9 @@ import numpy as np
 _H = 1e-5  # difference step of the Jacobian [mm] (well below the elastic slip, 5e-3 h)
 TOUCH = 1e-9  # a gap this small [mm] counts as closed: a body laid exactly on another
 # (gap 0 up to round-off, whose sign depends on the machine) is supported at once
-FADE = 0.1  # beyond the master's edge a node's force fades to zero over this part of a facet
+FADE = 0.3  # beyond the master's edge a node's force fades to zero over this part of a facet
+# (0.1 cycled with period 3 in the demonstrator, where a trimmed blank's top skin slides
+# past the core's edge)
 
 
 @numba.njit(cache=True)

@@ -11,8 +11,8 @@ ones. See docs/theory.md, section 11.
   the facet whose closest point is nearest (a search over all facets); within the
   Newton iterations it moves to the nearest facet of its pair's one-ring. A node whose
   closest point lies beyond the master surface's edge is let go gradually: its force
-  fades to zero over 10% of a facet (a cliff there made Newton cycle as an edge node
-  stepped on and off the surface).
+  fades to zero over 30% of a facet (a cliff there made Newton cycle as an edge node
+  stepped on and off the surface; 10% still cycled in the demonstrator).
 * **Normal contact**: augmented Lagrangian at the slave nodes, ``p = <lambda - eps g>``,
   the multipliers updated like the tool contacts' (``violation``, ``augment``). The
   normal is the master's nodal normals (area-weighted facet normals, taken at the start
