@@ -131,10 +131,11 @@ def report(runs: dict[float, dict], serial: dict, opt: dict) -> None:
               f"{abs(f1 - f2) / abs(f2):.2g}" if f1 and f2 else "not measured")
     lo, hi = (base.get("metrics", {}).get(k) for k in ("shear_min_deg", "shear_max_deg"))
     figures = _copy_figures(runs)
-    opt_lines = ["| run | formed edge to trim line, largest [mm] | RMS [mm] | wall [s] |",
-                 "|---:|---:|---:|---:|"]
+    opt_lines = ["| run | status | formed edge to trim line, largest [mm] | RMS [mm] | "
+                 "wall [s] |", "|---:|---|---:|---:|---:|"]
     for k, r in enumerate(opt.get("runs", []), start=1):
-        opt_lines.append(f"| {k} | {_f(r.get('trim_deviation_max_mm'), '.3g')} | "
+        status = r.get("status", "?") + (f" ({r['reason']})" if r.get("reason") else "")
+        opt_lines.append(f"| {k} | {status} | {_f(r.get('trim_deviation_max_mm'), '.3g')} | "
                          f"{_f(r.get('trim_deviation_rms_mm'), '.3g')} | "
                          f"{_f(r.get('wall_s'), '.0f')} |")
     commit = base.get("run", {}).get("git", {}).get("commit", "?")[:7]
