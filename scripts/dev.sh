@@ -121,7 +121,7 @@ cd "$repo"
 case "$cmd" in
     main)
         # the product's main job: the demonstrator part on a coarse mesh, 2 ranks
-        # (about 2 minutes); the core's compression test is `dev.sh core`
+        # (a few minutes); the core's compression test is `dev.sh core`
         out=results/demonstrator_main
         "$venv/bin/mpirun" -n 2 "$venv/bin/forming" run demonstrator --out "$out" \
             --set element_size=60 "$@" || exit $?
