@@ -31,6 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from forming import post
 from forming.blanks import Skins, outline_blank
 from forming.case import main, require
 from forming.demonstrator import setup
@@ -103,7 +104,7 @@ def build(p: Params) -> Job:
                newton=NewtonOptions(linear_solver=p.linear_solver, line_search="l2",
                                     max_it=40),
                explicit=ExplicitOptions(loading_time=0.05),
-               probe=setup.probe, metrics=report.metrics, plots=report.plots,
+               probe=post.crushed_volume_probe, metrics=report.metrics, plots=report.plots,
                pictures=report.pictures, field_every=5,
                response=Response("force_upper_z_N", stroke, label="closing force"))
 

@@ -81,8 +81,8 @@ def _clip(pts: np.ndarray, axis: int) -> np.ndarray:
     return np.asarray(out)
 
 
-def _distance_to_polygon(q: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Distance of points q (m, 2) to the closed polygon's edges."""
+def distance_to_polyline(q: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Distance of points q (m, 2) to the edges of the closed polyline pts (n, 2)."""
     a, b = pts, np.roll(pts, -1, axis=0)
     ab = b - a
     t = np.clip(np.einsum("mnk,nk->mn", q[:, None] - a[None], ab)
@@ -101,7 +101,7 @@ def quarter(points: np.ndarray, field: str = "--set blank") -> Outline:
     pts = closed_curve(points, field)
     size = float(np.ptp(pts, axis=0).max())
     for flip, name in (((-1, 1), "x = 0"), ((1, -1), "y = 0")):
-        off = _distance_to_polygon(pts * np.asarray(flip), pts).max()
+        off = distance_to_polyline(pts * np.asarray(flip), pts).max()
         if off > 1e-3 * size:
             raise InputError(field, f"the outline is not symmetric about {name} (a mirrored "
                              f"point is {off:.4g} mm off it); the case models a quarter")

@@ -32,6 +32,9 @@ import numpy as np
 
 from forming.errors import InputError
 
+COPIES = ((1.0, 1.0), (-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0))
+"""Sign flips that mirror the modelled quarter (x >= 0, y >= 0) into the whole part."""
+
 
 def rounded_rectangle_distance(x, y, half_x: float, half_y: float, radius: float):
     """Signed distance in plan to a rounded rectangle centred at the origin (negative inside)."""

@@ -14,9 +14,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
 
+from forming.demonstrator.geometry import COPIES
 from forming.demonstrator.setup import Part
-
-COPIES = ((1.0, 1.0), (-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0))
 
 
 def _figure(panels: int) -> tuple[Figure, list]:

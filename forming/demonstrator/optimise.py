@@ -20,11 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
+from forming.demonstrator.curves import distance_to_polyline
+from forming.demonstrator.geometry import COPIES
 from forming.errors import InputError
 
 SPACING = 10.0  # trim line resampling before the back-mapping [mm]
 SAMPLES = 8  # points per spline segment of the new outline
-COPIES = ((1.0, 1.0), (-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0))
 
 
 @dataclass(frozen=True)
@@ -90,16 +91,6 @@ def _barycentric(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
     l1 = (d[..., 0] * v1[:, 1] - d[..., 1] * v1[:, 0]) / det
     l2 = (v0[:, 0] * d[..., 1] - v0[:, 1] * d[..., 0]) / det
     return np.stack([1.0 - l1 - l2, l1, l2], axis=2)
-
-
-def distance_to_polyline(points: np.ndarray, closed: np.ndarray) -> np.ndarray:
-    """Distance of points (n, 2) to the closed polyline (m, 2)."""
-    a, b = closed, np.roll(closed, -1, axis=0)
-    ab = b - a
-    t = np.clip(np.einsum("nmk,mk->nm", points[:, None] - a[None], ab)
-                / np.maximum(np.einsum("mk,mk->m", ab, ab), 1e-300), 0.0, 1.0)
-    return np.linalg.norm(points[:, None] - (a[None] + t[..., None] * ab[None]),
-                          axis=2).min(axis=1)
 
 
 def resample(closed: np.ndarray, spacing: float = SPACING) -> np.ndarray:

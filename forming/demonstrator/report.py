@@ -27,7 +27,6 @@ from forming.blanks import SKINS, Blank
 from forming.demonstrator.final import Faces, boundary_faces, implicit_distance
 from forming.demonstrator.setup import Part, inside_trim
 
-COPIES = ((1, 1), (-1, 1), (1, -1), (-1, -1))  # the quarter mirrored into the whole part
 FIBRE_COMPRESSION = 0.01  # a tow strained below minus this is compressed [-]
 TOOL_OF = {"skin_top": "upper", "skin_bottom": "lower"}
 FORMING_MAP = "forming_map.npz"  # the core top's faces before and after, edge, trim, blank

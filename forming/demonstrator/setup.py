@@ -21,7 +21,6 @@ from forming.demonstrator.curves import closed_curve, quarter, read_points
 from forming.demonstrator.geometry import Component
 from forming.errors import InputError
 from forming.outline import Outline
-from forming.post.metrics import crushed_volume_probe
 from forming.scene import Contact, Linear, Tool
 from forming.tooling import generated_dir
 
@@ -148,8 +147,3 @@ def matched_tools(part: Part, blank: Blank, friction: float, clearance: float,
                 Contact(blank.lower, blank.face(blank.lower, "bottom"), "lower",
                         friction=friction, stick="elastic_slip", tolerance=tolerance))
     return tools, contacts, stroke
-
-
-def probe(model) -> dict[str, float]:
-    """History columns after every step: the core's crushed volume."""
-    return crushed_volume_probe(model)
