@@ -217,6 +217,26 @@ def test_trim_line_maps_back_to_the_developed_outline_of_a_cylinder(tmp_path):
     assert dev.max() == pytest.approx(radius * np.sin(380.0 / radius) - 300.0, rel=1e-6)
 
 
+def test_the_forming_map_is_the_core_mid_surface_of_a_sheared_edge():
+    """Top and bottom faces of an extruded core whose top slid 2 mm further out than its
+    bottom (skin-core slip shears the blank's edge): ``Faces.midway`` pairs each top
+    corner with the bottom corner of the same node column (listed in another order) and
+    returns the mid-surface, 1 mm out. A failure means the blank development maps the
+    trim line through one face of the core, leaving the other a full tilt off."""
+    from forming.demonstrator.final import Faces
+
+    quad = np.array([[0.0, 0.0], [30.0, 0.0], [30.0, 30.0], [0.0, 30.0]])
+    ref_top = np.column_stack([quad, np.full(4, 20.0)])[None]
+    ref_bottom = np.column_stack([quad[::-1], np.zeros(4)])[None]  # reversed: looks down
+    cur_top = ref_top + [2.0, 0.0, -13.0]  # crushed to 7 mm, slid 2 mm in x
+    one = np.ones(1)
+    top = Faces(cur_top, ref_top, np.array([[0, 0, 1.0]]), one, one.astype(int), {})
+    bottom = Faces(ref_bottom.copy(), ref_bottom, np.array([[0, 0, -1.0]]), one,
+                   one.astype(int), {})
+    mid = top.midway(bottom)
+    np.testing.assert_allclose(mid[0], ref_top[0] + [1.0, 0.0, -16.5], atol=1e-12)
+
+
 @pytest.mark.slow
 def test_demonstrator_closes_the_tools_and_reaches_the_cavity(tmp_path):
     """The shipped part on the 60 mm mesh (the main job's), serial: the tools close, the

@@ -12,7 +12,6 @@ import math
 import numpy as np
 import pytest
 
-from forming.errors import InputError
 from forming.output import hex_volumes
 from forming.post.skinfield import CellField, DrapeField, bilinear, rms
 
@@ -53,13 +52,23 @@ def test_cell_field_interpolates_between_centres_and_clamps_at_the_edge():
     assert np.isnan(out[3])  # beyond the edge (150 mm)
 
 
-def test_cell_field_refuses_a_graded_mesh():
-    """Centres that do not lie on a regular plan grid are refused with a clear error."""
-    field, _ = _grid_field()
+def test_cell_field_on_scattered_centres_is_linear_exact_and_stops_a_cell_out():
+    """Centres off a regular grid (a graded or unstructured skin mesh, the demonstrator's)
+    are interpolated linearly over their triangles: a linear field is recovered exactly
+    inside them; just outside, the nearest centre's value; a cell spacing beyond, NaN.
+    A failure means the demonstrator's fidelity ladder compares misplaced values."""
+    field, f = _grid_field()
     X = field.X.copy()
-    X[:, 0] = X[:, 0] ** 1.2
-    with pytest.raises(InputError, match="regular grid"):
-        CellField(X, X, field.volume, field.values).at(np.zeros((1, 2)))
+    X[:, 0] = X[:, 0] ** 1.2  # graded in x
+    graded = CellField(X, X, field.volume, f(X[:, 0], X[:, 1]))
+    pts = np.array([[60.0, 40.0], [150.0, 100.0], [X[:, 0].max() + 5.0, 60.0],
+                    [X[:, 0].max() + 80.0, 60.0]])
+    out = graded.at(pts)
+    np.testing.assert_allclose(out[:2], f(pts[:2, 0], pts[:2, 1]), atol=1e-9)
+    right = X[:, 0] == X[:, 0].max()
+    nearest = np.argmin(np.abs(X[right, 1] - 60.0))
+    assert out[2] == pytest.approx(graded.values[right][nearest])
+    assert np.isnan(out[3])
 
 
 def test_drape_field_addresses_nodes_by_their_flat_positions():

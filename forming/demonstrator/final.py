@@ -69,6 +69,18 @@ class Faces:
         """A cell value at each face (its cell's)."""
         return self.values[name][self.cells]
 
+    def midway(self, other: Faces) -> np.ndarray:
+        """Deformed corners (n, 4, 3) halfway between these faces and ``other``.
+
+        For an extruded body's top and bottom: each corner is averaged with the corner of
+        ``other`` nearest it in reference plan position (the same node column).
+        """
+        mine = self.reference[:, :, :2].reshape(-1, 2)
+        theirs = other.reference[:, :, :2].reshape(-1, 2)
+        nearest = np.array([np.argmin(np.sum((theirs - p) ** 2, axis=1)) for p in mine])
+        below = other.polygons.reshape(-1, 3)[nearest].reshape(self.polygons.shape)
+        return 0.5 * (self.polygons + below)
+
     def polydata(self):
         """The deformed faces as a triangulated :class:`pyvista.PolyData`."""
         import pyvista as pv

@@ -1,16 +1,19 @@
 """Net-shape blank development: trim line mapped back to the flat blank, run after run.
 
 After a forming run, ``forming_map.npz`` (:class:`~forming.demonstrator.report.Report`)
-holds the core top's faces before and after forming. Split into triangles and mirrored
-into the whole part, they define the forming map X -> x in plan and its inverse: a trim
-point p lies in a formed triangle, and the same barycentric weights in the flat
-triangle give the material point that ends at p (outside the formed blank, the nearest
-triangle's affine map extrapolates). The trim line, resampled every ``SPACING``,
-mapped back and offset outward by the margin, becomes the next blank: a closed
-centripetal Catmull-Rom spline sampled densely. The run repeats until the formed edge
-lies within the tolerance of the trim line everywhere (the largest plan distance of the
-formed edge's nodes to the trim line; the trim line lies on the part's flange, where
-plan and surface distances agree).
+holds the core's mid-surface (halfway between its top and bottom faces) before and
+after forming. Split into triangles and mirrored into the whole part, it defines the
+forming map X -> x in plan and its inverse: a trim point p lies in a formed triangle,
+and the same barycentric weights in the flat triangle give the material point that
+ends at p (outside the formed blank, the nearest triangle's affine map extrapolates).
+The trim line, resampled every ``SPACING``, mapped back and offset outward by the
+margin, becomes the next blank: a closed centripetal Catmull-Rom spline sampled
+densely. The run repeats until the formed edge lies within the tolerance of the trim
+line everywhere: the largest plan distance to the trim line of every node of the core's
+edge, top, middle and bottom (the trim line lies on the part's flange, where plan and
+surface distances agree). Skin-core slip shears the edge (its top and bottom end a
+millimetre or two apart in plan); mapping the mid-surface makes it straddle the trim
+line.
 """
 
 from __future__ import annotations

@@ -29,7 +29,7 @@ from forming.demonstrator.setup import Part, inside_trim
 
 FIBRE_COMPRESSION = 0.01  # a tow strained below minus this is compressed [-]
 TOOL_OF = {"skin_top": "upper", "skin_bottom": "lower"}
-FORMING_MAP = "forming_map.npz"  # the core top's faces before and after, edge, trim, blank
+FORMING_MAP = "forming_map.npz"  # core mid-surface before and after, edge, trim, blank
 
 
 @dataclass(frozen=True)
@@ -106,6 +106,7 @@ class Report:
                   + np.abs(implicit_distance(top.centres, g["tools"]["lower"])) - 2 * skin)
         inside = inside_trim(self.part, top.centres[:, :2])
         out["fields"]["core"] = (top, thickness, cavity, inside)
+        out["fields"]["core_bottom"] = bottom
         m["core_thickness_min_mm"] = float(thickness[inside].min(initial=np.inf))
         m["core_underfill_max_mm"] = float((cavity - thickness)[inside].max(initial=0.0))
         edge = core.lateral()
@@ -154,9 +155,11 @@ class Report:
         if model.comm.rank != 0:
             return []
         out = Path(out)
-        top = a["fields"]["core"][0]
+        top, bottom = a["fields"]["core"][0], a["fields"]["core_bottom"]
         edge = a["fields"]["edge"][0]
-        np.savez(out / FORMING_MAP, reference=top.reference, current=top.polygons,
+        # the forming map of the core's mid-surface: a sheared blank edge (skin-core slip
+        # tilts it) then straddles the trim line instead of leaving it on one side
+        np.savez(out / FORMING_MAP, reference=top.reference, current=top.midway(bottom),
                  edge_reference=edge.reference, edge_current=edge.polygons,
                  trim=self.part.trim, blank=self.part.blank)
         return [maps.shear_map(out, a, self.limits, self.part),

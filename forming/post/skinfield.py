@@ -8,6 +8,9 @@ along its fibres. Each field is interpolated bilinearly onto the points of anoth
 
 - a run's cell centres on a regular grid in plan (a uniform skin mesh): bilinear between
   the centres, held constant over the half cell between the outer centres and the edge;
+- a run's cell centres anywhere else (an unstructured skin mesh): linear over the
+  Delaunay triangles of the centres (matplotlib's), the nearest centre's value outside
+  them up to one centre spacing away (the rim of half cells along the edge), NaN beyond;
 - a drape's net: bilinear between its placed nodes, NaN outside them (a drape covers the
   tool's surface only).
 """
@@ -80,31 +83,32 @@ class CellField:
         z = _load(Path(run) / "final_shape.npz", keys)
         return cls(*(z[k] for k in keys))
 
-    def _grid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _grid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """The centres' distinct x and y and the values on that grid.
 
-        Raises:
-            InputError: The centres do not form a regular grid in plan.
+        None when the centres are not a regular grid in plan (graded or unstructured).
         """
         xs, ix = np.unique(np.round(self.X[:, 0], 6), return_inverse=True)
         ys, iy = np.unique(np.round(self.X[:, 1], 6), return_inverse=True)
         grid = np.full((xs.size, ys.size), np.nan)
         grid[ix, iy] = self.values
         regular = all(v.size < 3 or np.ptp(np.diff(v)) < 1e-6 * np.ptp(v) for v in (xs, ys))
-        if xs.size * ys.size != self.values.size or np.isnan(grid).any() or not regular:
-            raise InputError("final_shape.npz", "the cell centres are not a regular grid in "
-                             "plan (a graded or layered skin mesh): cannot interpolate")
-        if min(xs.size, ys.size) < 2:
-            raise InputError("final_shape.npz", "a skin one cell wide cannot be interpolated")
+        if (xs.size * ys.size != self.values.size or np.isnan(grid).any() or not regular
+                or min(xs.size, ys.size) < 2):
+            return None
         return xs, ys, grid
 
     def at(self, points: np.ndarray) -> np.ndarray:
-        """The field at reference points (k, 2 or 3), bilinear between cell centres.
+        """The field at reference points (k, 2 or 3).
 
-        Points between the outer centres and the blank's edge take the nearest centres'
-        values (clamped); points beyond half a cell outside are NaN.
+        On a regular grid of centres: bilinear between them; points between the outer
+        centres and the blank's edge take the nearest centres' values (clamped); points
+        beyond half a cell outside are NaN. Otherwise: :meth:`scattered`.
         """
-        xs, ys, grid = self._grid()
+        regular = self._grid()
+        if regular is None:
+            return self.scattered(points)
+        xs, ys, grid = regular
         out = []
         for k, v in enumerate((xs, ys)):
             h = (v[-1] - v[0]) / (v.size - 1)
@@ -114,6 +118,38 @@ class CellField:
             out.append(f)
         # bilinear gives NaN where an index is NaN (outside every comparison)
         return bilinear(grid, *out)
+
+    def scattered(self, points: np.ndarray) -> np.ndarray:
+        """The field at reference points (k, 2 or 3), linear between any cell centres.
+
+        Linear on the Delaunay triangles of the centres in plan; outside them, the
+        nearest centre's value where it lies within the centres' largest nearest-neighbour
+        spacing (the half cells along the blank's edge); NaN beyond.
+
+        Raises:
+            InputError: Fewer than three centres, or all on a line.
+        """
+        from matplotlib.tri import LinearTriInterpolator, Triangulation
+
+        c = self.X[:, :2]
+        p = np.asarray(points, dtype=float)[:, :2]
+        try:
+            tri = Triangulation(c[:, 0], c[:, 1])
+        except (ValueError, RuntimeError) as exc:
+            raise InputError("final_shape.npz", f"the cell centres cannot be triangulated "
+                             f"({exc})") from exc
+        inside = LinearTriInterpolator(tri, self.values)(p[:, 0], p[:, 1])
+        out = np.ma.filled(inside.astype(float), np.nan)
+        d2 = np.sum((c[:, None, :] - c[None, :, :]) ** 2, axis=2)
+        np.fill_diagonal(d2, np.inf)
+        reach = float(np.sqrt(d2.min(axis=1).max()))
+        missing = np.flatnonzero(np.isnan(out))
+        if missing.size:
+            dist = np.sum((p[missing, None, :] - c[None, :, :]) ** 2, axis=2)
+            near = np.argmin(dist, axis=1)
+            close = dist[np.arange(missing.size), near] <= reach ** 2 * (1 + 1e-9)
+            out[missing[close]] = self.values[near[close]]
+        return out
 
 
 @dataclass(frozen=True)
