@@ -26,6 +26,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 from _report import REPO, machine, study_runs, update_section
 
 VALIDATION_MD = REPO / "docs" / "validation.md"
@@ -60,7 +61,8 @@ def _serial_run(run: bool) -> dict:
         study_runs("demonstrator", {"tool_friction": (FRICTIONS[0],)}, OUT / "serial", ranks=1)
     from forming.study import folder_name
 
-    return _summary(OUT / "serial" / "runs" / folder_name({"tool_friction": str(FRICTIONS[0])}))
+    folder = OUT / "serial" / "runs" / folder_name({"tool_friction": str(FRICTIONS[0])})
+    return _summary(folder) | {"folder": str(folder)}
 
 
 def _optimise(run: bool) -> dict:
@@ -81,6 +83,37 @@ def _optimise(run: bool) -> dict:
     seconds = out / "process_s.txt"
     record["process_s"] = float(seconds.read_text()) if seconds.is_file() else None
     return record
+
+
+def _history(folder: Path) -> dict[str, np.ndarray]:
+    import csv
+
+    with open(folder / "history.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]} if rows else {}
+
+
+def common_path(a: Path, b: Path, force: str = "force_upper_z_N") -> str:
+    """Where two runs of the same settings part: their steps, forces and Newton counts."""
+    try:
+        ha, hb = _history(a), _history(b)
+    except (OSError, KeyError, ValueError):
+        return "not measured (a history is missing)"
+    n = min(len(ha["t"]), len(hb["t"]))
+    same = ha["t"][:n] == hb["t"][:n]
+    k = int(np.argmin(same)) if not same.all() else n
+    fa, fb = ha[force][:k], hb[force][:k]
+    big = np.abs(fa) > 0.01 * np.abs(ha[force]).max()
+    rel = float(np.max(np.abs(fa - fb)[big] / np.abs(fa[big]))) if big.any() else 0.0
+    text = (f"the same {k - 1} steps (to load parameter {ha['t'][k - 1]:.4f}), the tool "
+            f"force within {rel:.1e} of itself on every one past 1% of the peak")
+    if k < n:
+        (ta, ia), (tb, ib) = ((h["t"][k], int(h["newton_iterations"][k])) for h in (ha, hb))
+        (t_cut, i_cut), (t_on, i_on) = sorted([(ta, ia), (tb, ib)])
+        text += (f"; at step {k} one run converged in {i_on} Newton iterations (to "
+                 f"{t_on:.5f}) where the other's Newton failed (limit: 40), cut the step "
+                 f"and converged in {i_cut} (to {t_cut:.5f}); from there the paths part")
+    return text
 
 
 def _f(value, fmt: str = ".4g") -> str:
@@ -151,6 +184,10 @@ def report(runs: dict[float, dict], serial: dict, opt: dict) -> None:
         "μ = 0.23.", "",
         "Figures (docs/figures): " + ", ".join(f"`{n}`" for n in figures) + ".", "",
         "### Serial against 2 ranks", "", f"Closing force: {parity}.", "",
+        "Along the way: serial against 2 ranks, "
+        f"{common_path(Path(serial.get('folder', '.')), Path(base['folder']))}. Two "
+        "2-rank runs of the same settings (the μ = 0.23 run and the blank development's "
+        f"first run): {common_path(Path(base['folder']), OUT / 'blank' / 'run_1')}.", "",
         "### Net-shape blank: `forming optimise-blank demonstrator`", "",
         *opt_lines, "",
         f"Converged: {opt.get('converged')} in {opt.get('iterations')} runs (tolerance "

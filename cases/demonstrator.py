@@ -12,8 +12,9 @@ model (the part is symmetric about x = 0 and y = 0).
 
 The case forms any matched pair: ``--set lower_tool=FILE --set upper_tool=FILE`` (STEP,
 IGES, STL, OBJ, ...; closed solids in their closed position, in mm or with
-``tool_scale``), ``--set blank=FILE`` (a CSV of x, y points of the blank's outline,
-symmetric about both axes), ``--set trim=FILE`` (the finished part's outline), and the
+``tool_scale``), ``--set blank=FILE`` (the blank's outline, symmetric about both axes:
+a CSV of x, y points or a DXF file with one closed outline), ``--set trim=FILE`` (the
+finished part's outline, CSV or DXF), and the
 core thickness, plies and fibre angles. The shipped tools are written on first use under
 ``meshes/generated/demonstrator-*`` by ``python meshes/demonstrator_tools.py``.
 
@@ -55,8 +56,8 @@ class Params:
     lower_tool: str | None = None  # lower tool file, closed position; none: shipped part
     upper_tool: str | None = None  # upper tool file, closed position; none: shipped part
     tool_scale: float = 1.0  # factor from the tool files' units to mm
-    blank: str | None = None  # blank outline CSV (x, y); none: 720 x 590 rectangle
-    trim: str | None = None  # trim line CSV (x, y); none: the shipped part's
+    blank: str | None = None  # blank outline, CSV (x, y) or DXF; none: 720 x 590 rectangle
+    trim: str | None = None  # trim line, CSV (x, y) or DXF; none: the shipped part's
     core_thickness: float = 20.0  # core thickness [mm] (paper: 20)
     plies: int = 1  # plies per skin (paper: one)
     ply_thickness: float = 0.4  # ply thickness [mm]

@@ -126,6 +126,74 @@ def test_trim_curves_that_are_open_crossed_or_outside_the_blank_are_refused(tmp_
     assert part.trim.shape == (4, 2)
 
 
+def _rounded_rectangle_area(a: float, b: float, r: float) -> float:
+    return 4 * a * b - (4 - np.pi) * r * r
+
+
+def test_dxf_outlines_read_as_drawn_and_bad_ones_are_refused(tmp_path):
+    """A blank outline in DXF, as CAD draws it: a rounded rectangle (600 x 480, R60) as one
+    closed LWPOLYLINE with arc bulges, the same as LINEs and ARCs meeting end to end (in
+    cm, converted by $INSUNITS), and the optimiser's own output read back. Areas within
+    1e-4 of the analytic (the arcs flattened to 0.01 mm). Files with no closed outline,
+    two outlines, an open chain or garbage get an InputError naming ``--set blank``. A
+    failure means a user's DXF blank is misread."""
+    import ezdxf
+
+    from forming.demonstrator.curves import read_points
+    from forming.demonstrator.dxf import write_outline
+
+    a, b, r = 300.0, 240.0, 60.0
+    area = _rounded_rectangle_area(a, b, r)
+    bulge = np.tan(np.pi / 8)  # a quarter circle
+    doc = ezdxf.new("R2010", units=4)
+    corners = [(a - r, -b, bulge), (a, -b + r, 0), (a, b - r, bulge), (a - r, b, 0),
+               (-a + r, b, bulge), (-a, b - r, 0), (-a, -b + r, bulge), (-a + r, -b, 0)]
+    doc.modelspace().add_lwpolyline([(x, y, 0, 0, g) for x, y, g in corners],
+                                    format="xyseb", close=True)
+    doc.modelspace().add_text("blank, rev. A")  # not a curve: ignored
+    doc.saveas(tmp_path / "poly.dxf")
+    pts = closed_curve(read_points(tmp_path / "poly.dxf", "--set blank"), "--set blank")
+    assert Outline(tuple(map(tuple, pts))).polygon_area == pytest.approx(area, rel=1e-4)
+
+    doc = ezdxf.new("R2010", units=5)  # centimetres
+    msp = doc.modelspace()
+    c = [(a - r, b - r), (-a + r, b - r), (-a + r, -b + r), (a - r, -b + r)]
+    for k, (cx, cy) in enumerate(c):  # arcs at the corners, lines between (shuffled ends)
+        msp.add_arc((cx / 10, cy / 10), r / 10, 90 * k, 90 * (k + 1))
+    msp.add_line((a / 10, (-b + r) / 10), (a / 10, (b - r) / 10))
+    msp.add_line((-a / 10, (b - r) / 10), (-a / 10, (-b + r) / 10))
+    msp.add_line(((a - r) / 10, b / 10), ((-a + r) / 10, b / 10))
+    msp.add_line(((a - r) / 10, -b / 10), ((-a + r) / 10, -b / 10))  # drawn backwards
+    doc.saveas(tmp_path / "chain.dxf")
+    pts = closed_curve(read_points(tmp_path / "chain.dxf", "--set blank"), "--set blank")
+    assert Outline(tuple(map(tuple, pts))).polygon_area == pytest.approx(area, rel=1e-4)
+
+    octagon = np.column_stack([300 * np.cos(np.arange(8) * np.pi / 4),
+                               200 * np.sin(np.arange(8) * np.pi / 4)])
+    back = read_points(write_outline(tmp_path / "out.dxf", octagon), "--set blank")
+    np.testing.assert_allclose(back, octagon, atol=1e-9)
+
+    doc = ezdxf.new("R2010", units=4)
+    doc.modelspace().add_line((0, 0), (100, 0))
+    doc.modelspace().add_line((100, 0), (100, 100))
+    doc.saveas(tmp_path / "open.dxf")
+    doc = ezdxf.new("R2010", units=4)
+    doc.modelspace().add_circle((0, 0), 100)
+    doc.modelspace().add_circle((0, 0), 200)
+    doc.saveas(tmp_path / "two.dxf")
+    doc = ezdxf.new("R2010", units=4)
+    doc.modelspace().add_text("nothing")
+    doc.saveas(tmp_path / "empty.dxf")
+    (tmp_path / "junk.dxf").write_text("this is not a drawing\n")
+    for name, message in (("open", "the outline is open"), ("two", "2 closed outlines"),
+                          ("empty", "no closed outline"), ("junk", "not a readable DXF"),
+                          ("missing", "no such file")):
+        with pytest.raises(InputError) as info:
+            read_points(tmp_path / f"{name}.dxf", "--set blank")
+        assert info.value.field == "--set blank"
+        assert message in str(info.value), name
+
+
 def test_a_symmetric_outline_is_cut_to_its_quarter_and_an_asymmetric_one_refused():
     """The quarter of a symmetric octagon has its area / 4 with edges on both axes; an
     outline shifted off x = 0 is refused (the case models a quarter)."""

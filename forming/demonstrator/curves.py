@@ -1,7 +1,8 @@
 """Blank outlines and trim lines of a component: read, checked, cut to the modelled quarter.
 
 Both are closed curves in plan given as CSV files of x, y points (a header line is
-allowed; a last point equal to the first is dropped). The demonstrator models a quarter
+allowed; a last point equal to the first is dropped) or as DXF files holding one closed
+outline (:mod:`forming.demonstrator.dxf`). The demonstrator models a quarter
 of a part symmetric about x = 0 and y = 0, so a blank outline must be symmetric too:
 :func:`quarter` cuts it to x >= 0, y >= 0 and refuses one that is not.
 """
@@ -17,10 +18,18 @@ from forming.outline import Outline
 
 
 def read_points(path: Path | str, field: str) -> np.ndarray:
-    """The (n, 2) points of a CSV file of x, y rows; an InputError naming ``field`` else."""
+    """The (n, 2) points of a CSV file of x, y rows or of a DXF file's one closed outline.
+
+    Raises:
+        InputError: naming ``field`` and the file, for anything unreadable.
+    """
     path = Path(path)
     if not path.is_file():
         raise InputError(field, f"{path}: no such file")
+    if path.suffix.lower() == ".dxf":
+        from forming.demonstrator.dxf import read_outline
+
+        return read_outline(path, field)
     rows = []
     for k, line in enumerate(path.read_text().splitlines(), start=1):
         text = line.strip()

@@ -9,7 +9,8 @@ Outputs in the folder: ``run_K/`` (every run's usual outputs), ``blank_K.csv`` (
 outline run K formed), ``outlines.png`` (all outlines over the trim line),
 ``optimise.json`` (per run: the edge's largest and RMS distance to the trim line, wall
 time) and the final outline as ``blank_final.csv`` and ``blank_final.dxf`` (a closed
-LWPOLYLINE in mm, written with ezdxf, for a cutting table).
+LWPOLYLINE in mm, written with ezdxf, for a cutting table; a blank of the case
+too: ``--set blank=blank_final.dxf``).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import numpy as np
 from mpi4py import MPI
 
 from forming.case import run_case
+from forming.demonstrator.dxf import write_outline
 from forming.demonstrator.optimise import FormingMap, next_blank
 from forming.errors import InputError
 
@@ -42,16 +44,6 @@ def _reuse(run: Path, assignments: list[str]) -> dict | None:
     if summary.get("status") == "completed" and summary.get("assignments") == assignments:
         return summary
     return None
-
-
-def write_dxf(path: Path, outline: np.ndarray) -> Path:
-    """The outline as one closed LWPOLYLINE (units mm) in a DXF file."""
-    import ezdxf
-
-    doc = ezdxf.new("R2010", units=4)  # 4: millimetres
-    doc.modelspace().add_lwpolyline([tuple(map(float, p)) for p in outline], close=True)
-    doc.saveas(path)
-    return path
 
 
 def _overlay(path: Path, outlines: list[np.ndarray], trim: np.ndarray, devs: list[float]) -> Path:
@@ -143,7 +135,7 @@ def optimise_blank(case: str, out: Path, assignments: list[str], tolerance: floa
         _write_csv(out / "blank_1.csv", outlines[0])
         final = outlines[len(devs) - 1] if devs else outlines[0]
         record["outline_csv"] = str(_write_csv(out / "blank_final.csv", final))
-        record["outline_dxf"] = str(write_dxf(out / "blank_final.dxf", final))
+        record["outline_dxf"] = str(write_outline(out / "blank_final.dxf", final))
         record["overlay_png"] = str(_overlay(out / "outlines.png", outlines,
                                              FormingMap.read(out / runs[0]["run"]).trim,
                                              devs))
