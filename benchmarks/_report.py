@@ -44,11 +44,12 @@ def run_case_process(case: str, out: Path, ranks: int = 1, sets: tuple[str, ...]
 
 
 def study_runs(case: str, vary: dict[str, tuple], out: Path, sets: tuple[str, ...] = (),
-               ranks: int = 1, jobs: int = 1, metrics: tuple[str, ...] = ()
-               ) -> list[tuple[object, dict]]:
+               ranks: int = 1, jobs: int = 1, metrics: tuple[str, ...] = (),
+               drape: bool = False) -> list[tuple[object, dict]]:
     """Run ``case`` over every combination of ``vary`` as a ``forming study`` in ``out``.
 
-    Runs already in ``out`` with the same settings are reused (a benchmark can be resumed);
+    With ``drape``, each run is ``forming drape`` (``forming study --drape``). Runs
+    already in ``out`` with the same settings are reused (a benchmark can be resumed);
     ``study.csv``, ``study.md`` and the study's PNGs (of ``metrics``, or of every metric)
     are written there.
 
@@ -61,7 +62,7 @@ def study_runs(case: str, vary: dict[str, tuple], out: Path, sets: tuple[str, ..
     from forming.study_report import report
 
     levels = [f"{k}={':'.join(str(v) for v in vals)}" for k, vals in vary.items()]
-    study = parse_study(case, levels, out, sets, metrics, "finest", jobs, ranks)
+    study = parse_study(case, levels, out, sets, metrics, "finest", jobs, ranks, drape)
     rows = run_study(study)
     report(study, rows)
     pairs = []

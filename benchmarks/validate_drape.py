@@ -6,10 +6,13 @@
    pole at the origin cell's centre) against KinDrape's numbers (tests/data).
 3. Convergence as d halves to the continuous Chebyshev net (sine-Gordon).
 4. ``forming drape hemisphere`` timed as a process (Python start-up included).
+5. Net-spacing convergence of ``forming drape hemisphere`` with the study command
+   (``forming study hemisphere --drape --vary drape.spacing=...``; its runs are kept in
+   ``results/validate_drape``).
 
 Prints the markdown; ``--write`` also replaces the section of docs/validation.md and writes
 docs/figures/drape_kindrape.png and drape_hemisphere.png.
-Run: ``python benchmarks/validate_drape.py [--write]`` (about 20 s).
+Run: ``python benchmarks/validate_drape.py [--write]`` (about 40 s).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _report import REPO, machine, update_section
+from _report import REPO, machine, study_runs, update_section
 
 from forming.contact.shapes import HemisphericalPunch, Roller
 from forming.drape import DrapeSettings, ShapeSurface, chebyshev_sphere_shear, drape
@@ -33,6 +36,8 @@ from forming.drape import DrapeSettings, ShapeSurface, chebyshev_sphere_shear, d
 FIG = REPO / "docs" / "figures"
 VALIDATION_MD = REPO / "docs" / "validation.md"
 REF = REPO / "tests" / "data" / "kindrape_hemisphere.npz"
+SPACINGS = ("13.6", "6.8", "3.4", "1.7")  # drape.spacing levels of the study [mm]
+PUNCH_RADIUS = 50.0  # the hemisphere case's punch [mm]
 
 
 def hemisphere(cut_deg: float | None = None) -> ShapeSurface:
@@ -210,6 +215,46 @@ def command(write: bool) -> list[str]:
             "", "![forming drape hemisphere](figures/drape_hemisphere.png)"]
 
 
+def spacing_study() -> list[str]:
+    """``forming study hemisphere --drape --vary drape.spacing=...``: the net's coverage."""
+    out = REPO / "results" / "validate_drape" / "spacing"
+    pairs = study_runs("hemisphere", {"drape.spacing": SPACINGS}, out, drape=True,
+                       metrics=("draped_area_mm2", "shear_rms_deg", "shear_max_deg"))
+    exact = 2 * math.pi * PUNCH_RADIUS**2
+    rows, prev, rms = [], None, []
+    for row, _summary in pairs:
+        if row.status != "completed":
+            rows.append(f"| {row.values['drape.spacing']} | {row.status} | | | | | | |")
+            continue
+        m = row.metrics
+        err = exact - m["draped_area_mm2"]
+        rows.append(f"| {row.values['drape.spacing']} | {int(m['nodes_placed'])} | "
+                    f"{m['draped_area_mm2']:.0f} | {err / exact:.2%} | "
+                    f"{'' if prev is None else f'{prev / err:.2f}'} | "
+                    f"{m['shear_rms_deg']:.3f} | {m['shear_max_deg']:.2f} | {row.wall_s:.2f} |")
+        prev = err
+        rms.append(m["shear_rms_deg"])
+    steps = ", ".join(f"{b - a:+.2f}" for a, b in zip(rms[:-1], rms[1:], strict=True))
+    return ["### Net spacing, with the study command", "",
+            "`forming study hemisphere --drape --vary drape.spacing="
+            f"{','.join(SPACINGS)} --out results/validate_drape/spacing` (each level a "
+            "`forming drape` whose `summary.json` the study tabulates like a run's; "
+            "`study.md` and PNGs in that folder). The net stops at the punch's equator, so "
+            f"its draped area tends to the hemisphere's, 2 pi R^2 = {exact:.0f} mm^2 "
+            f"(R = {PUNCH_RADIUS:g} mm), from below: the cells cut at the equator are left "
+            "out. Wall: the drape's own record.", "",
+            "| d [mm] | nodes placed | draped area [mm^2] | short of 2 pi R^2 | error ratio "
+            "| shear RMS [deg] | largest shear [deg] | wall [s] |",
+            "|---:|---:|---:|---:|---:|---:|---:|---:|", *rows, "",
+            "The area's shortfall halves with d: first order, a band of cut cells about "
+            "one cell wide along the equator. The shear's RMS changes by "
+            f"{steps} deg from level to level: the cells a finer net adds along the equator "
+            "are the most sheared, so the RMS converges only as slowly as the coverage; the "
+            "largest shear is the last row's, at the equator, and grows as the rows come "
+            "closer to it (see above). Away from the cut, the net converges at second order "
+            "(the Chebyshev-net table above)."]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true",
@@ -219,7 +264,7 @@ def main() -> None:
              "`python benchmarks/validate_drape.py --write`. A pin-jointed net (docs/theory.md "
              "section 14) verified where the answer is known.", "",
              *cylinder(), "", *kindrape(args.write), "", *convergence(), "",
-             *command(args.write)]
+             *command(args.write), "", *spacing_study()]
     text = "\n".join(lines)
     print(text)
     if args.write:

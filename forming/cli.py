@@ -8,7 +8,8 @@ forming run CASE --help                    every parameter of CASE
 forming compare CASE [--out DIR] [--set KEY=VALUE ...] [--reuse]
 forming drape CASE [--tool NAME] [--out DIR] [--set KEY=VALUE ...] [--spacing D] [--angle DEG]
 forming study CASE --vary KEY=V1,V2,... [--vary ...] [--metric NAME ...] [--set KEY=VALUE ...]
-                   [--reference finest|extrapolated|VALUE] [--jobs N] [--ranks R] --out DIR
+                   [--reference finest|extrapolated|VALUE] [--jobs N] [--ranks R] [--drape]
+                   --out DIR
 forming --version
 """
 
@@ -175,7 +176,7 @@ def _study(args: argparse.Namespace) -> int:
 
     def run() -> dict:
         study = parse_study(args.case, args.vary, args.out, args.assignments, args.metric,
-                            args.reference, args.jobs, args.ranks)
+                            args.reference, args.jobs, args.ranks, args.drape)
         return report(study, run_study(study))
 
     r, code = guarded(MPI.COMM_WORLD, run)
@@ -229,6 +230,9 @@ def _add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reference", default="extrapolated",
                         help="errors against: 'extrapolated' (Richardson, else the finest "
                              "run), 'finest', or a number")
+    parser.add_argument("--drape", action="store_true",
+                        help="each run is the kinematic drape onto the case's tool "
+                             "(forming drape), varied through drape.spacing=... etc.")
     parser.add_argument("--jobs", type=int, default=1, help="runs at a time")
     parser.add_argument("--ranks", type=int, default=1, help="MPI ranks per run")
     parser.add_argument("--out", type=Path, required=True,
@@ -261,11 +265,13 @@ def _add_drape_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output folder (default results/<case>_drape); a folder holding "
                              "an earlier drape is cleared of its files first")
     parser.add_argument("--set", dest="assignments", action="append", default=[],
-                        metavar="KEY=VALUE", help="set a case parameter (repeatable)")
+                        metavar="KEY=VALUE", help="set a case parameter (repeatable); "
+                        "drape.spacing=, drape.angle=, drape.size=, drape.tool= set the "
+                        "drape's own options")
     parser.add_argument("--spacing", type=float, default=None, metavar="D",
                         help="net spacing, the edge of a cell [mm] (default: the blank's "
                              "in-plane element size)")
-    parser.add_argument("--angle", type=float, default=DEFAULT_ANGLE, metavar="DEG",
+    parser.add_argument("--angle", type=float, default=None, metavar="DEG",
                         help="plan-view angle of the first fibre family from x [deg]; the "
                              f"second starts at DEG + 90 (default {DEFAULT_ANGLE:g}: the skins' "
                              "+/-45 deg)")

@@ -6,8 +6,12 @@ closest to the blank's centre (the centre of the origin cell). The tool's surfac
 where the blank cannot reach: outside the blank's bounding box swept by the tools'
 travels (the hemisphere's punch ends at its equator, not down its shank); the net stops
 there. Writes ``drape.json``, ``shear_angle.png``, ``drape.vtu`` (the net with its shear angles,
-for ParaView) and ``drape.npz`` (the net's arrays, :func:`write_npz`) into the output
-folder, on rank 0.
+for ParaView), ``drape.npz`` (the net's arrays, :func:`write_npz`) and ``summary.json``
+(the shape of a run's: status, assignments, metrics, timing, so that ``forming study
+--drape`` tabulates drapes like runs) into the output folder, on rank 0.
+
+The drape's own settings may also be given as ``--set drape.<name>=value`` (``spacing``,
+``angle``, ``size``, ``tool``), which is how a study varies them.
 """
 
 from __future__ import annotations
@@ -23,8 +27,12 @@ import numpy as np
 from forming.drape import Drape, DrapeSettings, ShapeSurface, drape, project
 from forming.errors import InputError
 
-DRAPE_FILES = ("drape.json", "drape.json.tmp", "shear_angle.png", "drape.vtu", "drape.npz")
+DRAPE_FILES = ("drape.json", "drape.json.tmp", "shear_angle.png", "drape.vtu", "drape.npz",
+               "summary.json")
 """What ``forming drape`` writes; a rerun into the same folder removes these first."""
+
+DRAPE_SETTINGS = ("spacing", "angle", "size", "tool")
+"""The drape's settings that ``--set drape.<name>=value`` takes."""
 
 DEFAULT_ANGLE = -45.0
 """Default plan-view angle of the first family [deg]: the skins' +/-45 deg NCF, stitch
@@ -174,6 +182,13 @@ def _prepare(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
 
 
+def _shear_rms(result: Drape) -> float | None:
+    """Area-weighted RMS of the placed cells' shear [deg]."""
+    ok = np.isfinite(result.cell_shear) & np.isfinite(result.cell_area)
+    a = result.cell_area[ok]
+    return float(np.sqrt(np.sum(a * result.cell_shear[ok] ** 2) / a.sum())) if a.sum() else None
+
+
 def summary(result: Drape, info: dict, wall: float, outputs: list[str]) -> dict:
     """What ``drape.json`` holds."""
     from forming.output import json_safe
@@ -191,6 +206,7 @@ def summary(result: Drape, info: dict, wall: float, outputs: list[str]) -> dict:
         "node_shear_max_deg": float(node.max()) if node.size else None,
         "area_fraction_beyond_limits": result.area_fraction_beyond(limits),
         "draped_area_mm2": float(np.nansum(result.cell_area)),
+        "shear_rms_deg": _shear_rms(result),
         "nodes_placed": result.placed, "nodes_total": int(np.prod(result.settings.nodes)),
         "not_placed": result.failures, "wall_s": wall, "outputs": outputs,
         "provenance": run_record()})
@@ -297,15 +313,70 @@ def shear_picture(result: Drape, path: Path, title: str,
     return path
 
 
+def drape_settings(sets: list[str], given: dict[str, object]) -> tuple[list[str], dict]:
+    """The case's assignments, and the drape's settings with ``drape.*`` ones merged in.
+
+    Args:
+        sets: ``key=value`` assignments; ``drape.<name>=value`` ones are the drape's.
+        given: The drape's settings from their own options (None: not given).
+
+    Raises:
+        InputError: An unknown ``drape.`` setting, a value that is not a number, or a
+            setting given both ways.
+    """
+    case_sets, merged = [], dict(given)
+    for a in sets:
+        key, _sep, value = a.partition("=")
+        key = key.strip()
+        if not key.startswith("drape."):
+            case_sets.append(a)
+            continue
+        name = key.removeprefix("drape.")
+        if name not in DRAPE_SETTINGS:
+            raise InputError(f"--set {key}", f"the drape has no setting {name!r}; it has "
+                             f"{', '.join(DRAPE_SETTINGS)}")
+        if merged.get(name) is not None:
+            raise InputError(f"--set {key}", f"given twice (also as --{name})")
+        if name == "tool":
+            merged[name] = value.strip()
+            continue
+        try:
+            merged[name] = float(value)
+        except ValueError:
+            raise InputError(f"--set {key}", f"expected a number, got {value!r}") from None
+    return case_sets, merged
+
+
+def _run_summary(record: dict, sets: list[str]) -> dict:
+    """``summary.json``: the drape in the shape of a run's summary (for studies)."""
+    placed = int(record["nodes_placed"])
+    metrics = {k: record[k] for k in ("shear_min_deg", "shear_max_deg", "node_shear_min_deg",
+                                      "node_shear_max_deg", "area_fraction_beyond_limits",
+                                      "draped_area_mm2", "shear_rms_deg")}
+    return {"case": record["case"], "status": "completed", "reason": None,
+            "solver": "kinematic drape", "assignments": list(sets),
+            "metrics": metrics | {"nodes_placed": placed},
+            "timing": {"wall_s": record["wall_s"], "steps": 0, "work": 0},
+            "mesh": {"dofs": 3 * placed, "net_nodes": placed},
+            "run": record["provenance"], "outputs": record["outputs"]}
+
+
 def run_drape(case: str, sets: list[str], out: Path, tool: str | None = None,
-              spacing: float | None = None, angle: float = DEFAULT_ANGLE,
+              spacing: float | None = None, angle: float | None = None,
               size: float | None = None, start: tuple[float, float, float] | None = None,
               comm=None) -> dict:
     """Drape onto a case's tool and write the outputs into ``out`` (rank 0).
 
+    ``sets`` may hold the drape's own settings as ``drape.<name>=value``.
+
     Returns:
         The contents of ``drape.json``.
     """
+    given = sets
+    sets, opts = drape_settings(sets, {"tool": tool, "spacing": spacing, "angle": angle,
+                                       "size": size})
+    tool, spacing, size = opts["tool"], opts["spacing"], opts["size"]
+    angle = DEFAULT_ANGLE if opts["angle"] is None else opts["angle"]
     t0 = time.perf_counter()
     problem = None
     if comm is None or comm.rank == 0:
@@ -332,8 +403,11 @@ def run_drape(case: str, sets: list[str], out: Path, tool: str | None = None,
     outputs = [shear_picture(result, out / "shear_angle.png", title, limits, below).name,
                write_vtu(result, out / "drape.vtu", limits).name,
                write_npz(result, out / "drape.npz").name]
-    record = summary(result, info, time.perf_counter() - t0, ["drape.json", *outputs])
+    record = summary(result, info, time.perf_counter() - t0,
+                     ["drape.json", *outputs, "summary.json"])
     tmp = out / "drape.json.tmp"
     tmp.write_text(json.dumps(record, indent=2))
     tmp.replace(out / "drape.json")
+    tmp.write_text(json.dumps(_run_summary(record, given), indent=2))
+    tmp.replace(out / "summary.json")
     return record

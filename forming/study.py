@@ -8,6 +8,10 @@ not run again, so a study can be resumed or extended by a level. A run that fail
 with its status. The table, the convergence judgement and the plots are
 :mod:`forming.study_report`'s.
 
+With ``--drape`` each run is the kinematic drape onto the case's tool instead
+(``forming drape CASE``, which writes a ``summary.json`` of the same shape); its own
+settings vary as ``drape.spacing=8,4,2`` (``drape.angle``, ``drape.size``, ``drape.tool``).
+
 Values: ``KEY=1,2,4`` varies a scalar; a value that holds commas itself (a tuple such as
 ``cells``) separates its levels by ``:`` (``cells=8,8,2:12,12,3:16,16,4``).
 """
@@ -83,6 +87,7 @@ class Study:
             falling back to the finest when the levels do not allow it).
         jobs: Runs at a time.
         ranks: MPI ranks per run.
+        drape: Each run is ``forming drape`` (one process) instead of the case's run.
     """
 
     case: str
@@ -93,6 +98,7 @@ class Study:
     reference: str = "extrapolated"
     jobs: int = 1
     ranks: int = 1
+    drape: bool = False
 
     def __post_init__(self) -> None:
         find_case(self.case)  # raises InputError naming the known cases
@@ -105,9 +111,17 @@ class Study:
         if fixed & set(keys):
             raise InputError("--set", f"{sorted(fixed & set(keys))} both set and varied")
         known = set(load_case(self.case).Params.__dataclass_fields__) | {"solver"}
+        if self.drape:
+            from forming.drape_case import DRAPE_SETTINGS
+
+            known |= {f"drape.{k}" for k in DRAPE_SETTINGS}
         for key in keys:
-            if key not in known and not key.startswith(SOLVER_PREFIXES):
-                raise InputError("--vary", f"{self.case} has no parameter {key!r}")
+            if key not in known and not (key.startswith(SOLVER_PREFIXES) and not self.drape):
+                raise InputError("--vary", f"{self.case} has no parameter {key!r}"
+                                 + ("" if self.drape or not key.startswith("drape.")
+                                    else " (drape settings need --drape)"))
+        if self.drape and self.ranks != 1:
+            raise InputError("--ranks", "a drape runs on one process")
         if self.jobs < 1 or self.ranks < 1:
             raise InputError("--jobs/--ranks", "must be at least 1")
         if self.reference not in ("finest", "extrapolated"):
@@ -178,7 +192,11 @@ def _summary(folder: Path, assignments: list[str]) -> dict | None:
 
 def command(study: Study, folder: Path, assignments: list[str]) -> list[str]:
     """The command line of one run (``mpirun -n R`` in front with several ranks)."""
-    cmd = [sys.executable, str(find_case(study.case)), "--out", str(folder), "--quiet"]
+    if study.drape:
+        cmd = [str(Path(sys.executable).parent / "forming"), "drape", study.case, "--out",
+               str(folder), "--quiet"]
+    else:
+        cmd = [sys.executable, str(find_case(study.case)), "--out", str(folder), "--quiet"]
     for a in assignments:
         cmd += ["--set", a]
     if study.ranks > 1:
@@ -226,9 +244,9 @@ def tuple_parameters(case: str) -> frozenset[str]:
 
 def parse_study(case: str, vary: Sequence[str], out: Path, sets: Sequence[str] = (),
                 metrics: Sequence[str] = (), reference: str = "extrapolated",
-                jobs: int = 1, ranks: int = 1) -> Study:
+                jobs: int = 1, ranks: int = 1, drape: bool = False) -> Study:
     """A :class:`Study` from command-line strings."""
     find_case(case)  # raises InputError naming the known cases
     sequences = tuple_parameters(case)
     return Study(case, tuple(Vary.parse(v, sequences) for v in vary), Path(out), tuple(sets),
-                 tuple(metrics), reference, jobs, ranks)
+                 tuple(metrics), reference, jobs, ranks, drape)
