@@ -61,10 +61,12 @@ class Level:
     folder: Path
 
 
-def drape_level(work: Path) -> Level:
+def drape_level(work: Path, case: str = "hemisphere",
+                args: tuple[str, ...] = tuple(a for s in SETS for a in ("--set", s))) -> Level:
+    """``forming drape CASE ARGS`` into ``work/drape``, timed as a process."""
     out = work / "drape"
-    cmd = [str(Path(sys.executable).parent / "forming"), "drape", "hemisphere", "--out",
-           str(out)] + [a for s in SETS for a in ("--set", s)]
+    cmd = [str(Path(sys.executable).parent / "forming"), "drape", case, "--out",
+           str(out), *args]
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=REPO)
     wall = time.perf_counter() - t0
@@ -124,7 +126,12 @@ def differences(levels: list[Level], ref: CellField) -> list[dict]:
     return rows
 
 
-def chart(rows: list[dict], ref_level: Level, path: Path) -> Path:
+def chart(rows: list[dict], ref_level: Level, path: Path, key: str = "rms_punch_deg",
+          ylabels: tuple[str, str] = ("RMS shear difference on the punch [deg]",
+                                      "punch force difference [%]"),
+          title: str = "Hemisphere with skins and holder: each model against the implicit "
+                       "20 x 20 x 4 run (dashed: the reference's wall time)") -> Path:
+    """Each level's shear difference (``key``) and force difference against wall time."""
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
@@ -133,31 +140,44 @@ def chart(rows: list[dict], ref_level: Level, path: Path) -> Path:
         if lv is ref_level:
             continue
         style = dict(marker="s" if lv.force_N is None else "o", ms=8, color=f"C{k}")
-        axes[0].plot(lv.wall_s, r["rms_punch_deg"], **style)
-        axes[0].annotate(lv.label, (lv.wall_s, r["rms_punch_deg"]), fontsize=8,
+        axes[0].plot(lv.wall_s, r[key], **style)
+        axes[0].annotate(lv.label, (lv.wall_s, r[key]), fontsize=8,
                          xytext=(5, 5), textcoords="offset points")
         if lv.force_N is not None:
             e = abs(lv.force_N / ref_level.force_N - 1) * 100
             axes[1].plot(lv.wall_s, e, **style)
             axes[1].annotate(lv.label, (lv.wall_s, e), fontsize=8, xytext=(5, 5),
                              textcoords="offset points")
-    for ax in axes:
+    for ax, label in zip(axes, ylabels, strict=True):
         ax.axvline(ref_level.wall_s, color="k", ls="--", lw=1)
         ax.annotate(f"reference: {ref_level.label}", (ref_level.wall_s, 0.5),
                     xycoords=("data", "axes fraction"), rotation=90, fontsize=8,
                     ha="right", va="center")
-    axes[0].set_ylabel("RMS shear difference on the punch [deg]")
-    axes[1].set_ylabel("punch force difference [%]")
-    for ax in axes:
+        ax.set_ylabel(label)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("wall time [s] (2 cores)")
         ax.grid(True, which="both", alpha=0.3)
-    fig.suptitle("Hemisphere with skins and holder: each model against the implicit "
-                 "20 x 20 x 4 run (dashed: the reference's wall time)", fontsize=11)
+    fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def level_cells(r: dict) -> str:
+    """A table row's first cells: level, wall, unknowns, shear range, whole-skin RMS."""
+    lv = r["level"]
+    whole = f"{r['rms_deg']:.2f}" + (f" ({r['cover']:.0%} covered)" if r["cover"] < 0.999
+                                     else "")
+    return (f"| {lv.label} | {lv.wall_s:.1f} | {lv.unknowns or '-'} | "
+            f"{lv.shear_range[0]:.1f} to {lv.shear_range[1]:.1f} | {whole} |")
+
+
+def force_cells(lv: Level, ref_force: float, unit: float = 1.0, fmt: str = ".0f") -> str:
+    """A table row's last cells: the level's force (in ``unit``) and its difference."""
+    if lv.force_N is None:
+        return " - | - |"
+    return f" {lv.force_N / unit:{fmt}} | {lv.force_N / ref_force - 1:+.1%} |"
 
 
 def maps(rows: list[dict], ref: CellField, path: Path) -> Path:
@@ -242,14 +262,8 @@ def markdown(rows: list[dict], ref_level: Level, gaps: list[float], ranks: int) 
         "| RMS diff. on the punch [deg] | punch force [N] | force diff. |",
         "|---|---:|---:|---|---:|---:|---:|---:|"]
     for r in rows:
-        lv = r["level"]
-        whole = (f"{r['rms_deg']:.2f}" + (f" ({r['cover']:.0%} covered)" if r["cover"] < 0.999
-                                          else ""))
-        force = "-" if lv.force_N is None else f"{lv.force_N:.0f}"
-        fdiff = "-" if lv.force_N is None else f"{(lv.force_N / ref_f - 1):+.1%}"
-        lines.append(f"| {lv.label} | {lv.wall_s:.1f} | {lv.unknowns or '-'} | "
-                     f"{lv.shear_range[0]:.1f} to {lv.shear_range[1]:.1f} | {whole} | "
-                     f"{r['rms_punch_deg']:.2f} | {force} | {fdiff} |")
+        lines.append(f"{level_cells(r)} {r['rms_punch_deg']:.2f} |"
+                     f"{force_cells(r['level'], ref_f)}")
     lines += ["| meso (cell walls) | not yet: issue 20 | | | | | | |", "",
               "RMS shear difference to the reference by distance from the pole in the flat "
               "blank [deg] (the punch's pole-to-equator arc is 78.5 mm):", "",

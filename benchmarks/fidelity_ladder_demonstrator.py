@@ -28,15 +28,12 @@ Run alone (wall times): ``python benchmarks/fidelity_ladder_demonstrator.py --wr
 from __future__ import annotations
 
 import argparse
-import json
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 from _report import REPO, machine, study_runs, update_section
-from fidelity_ladder import Level
+from fidelity_ladder import Level, chart, drape_level, force_cells, level_cells
 
 sys.path.insert(0, str(REPO))
 from forming.post.skinfield import CellField, DrapeField, rms  # noqa: E402
@@ -46,19 +43,6 @@ SKIN = "skin_bottom"  # the skin on the lower tool (the drape's surface)
 METRICS = ("closing_force_max_N", f"shear_min_deg_{SKIN}", f"shear_max_deg_{SKIN}")
 FLANGE = -1.0  # a reference cell whose formed centroid ends above this z is on the flange
 FIG = REPO / "docs" / "figures"
-
-
-def drape_level(work: Path) -> Level:
-    out = work / "drape"
-    cmd = [str(Path(sys.executable).parent / "forming"), "drape", "demonstrator", "--tool",
-           "lower", "--out", str(out)]
-    t0 = time.perf_counter()
-    subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=REPO)
-    wall = time.perf_counter() - t0
-    rec = json.loads((out / "drape.json").read_text())
-    return Level(f"kinematic drape, d = {rec['settings']['spacing']:.3g} mm", wall, 0,
-                 DrapeField.from_drape_json(out),
-                 (rec["node_shear_min_deg"], rec["node_shear_max_deg"]), None, out)
 
 
 def fe_levels(work: Path, ranks: int) -> list[Level]:
@@ -98,41 +82,6 @@ def _correlation(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> float:
     a, b, w = a[ok], b[ok], w[ok] / w[ok].sum()
     da, db = a - np.sum(w * a), b - np.sum(w * b)
     return float(np.sum(w * da * db) / np.sqrt(np.sum(w * da**2) * np.sum(w * db**2)))
-
-
-def chart(rows: list[dict], ref_level: Level, path: Path) -> Path:
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
-    for k, r in enumerate(rows):
-        lv = r["level"]
-        if lv is ref_level:
-            continue
-        style = dict(marker="s" if lv.force_N is None else "o", ms=8, color=f"C{k}")
-        axes[0].plot(lv.wall_s, r["rms_deg"], **style)
-        axes[0].annotate(lv.label, (lv.wall_s, r["rms_deg"]), fontsize=8, xytext=(5, 5),
-                         textcoords="offset points")
-        if lv.force_N is not None:
-            e = abs(lv.force_N / ref_level.force_N - 1) * 100
-            axes[1].plot(lv.wall_s, e, **style)
-            axes[1].annotate(lv.label, (lv.wall_s, e), fontsize=8, xytext=(5, 5),
-                             textcoords="offset points")
-    for ax in axes:
-        ax.axvline(ref_level.wall_s, color="k", ls="--", lw=1)
-        ax.annotate(f"reference: {ref_level.label}", (ref_level.wall_s, 0.5),
-                    xycoords=("data", "axes fraction"), rotation=90, fontsize=8,
-                    ha="right", va="center")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("wall time [s] (2 cores)")
-        ax.grid(True, which="both", alpha=0.3)
-    axes[0].set_ylabel("RMS bottom-skin shear difference [deg]")
-    axes[1].set_ylabel("closing force difference [%]")
-    fig.suptitle("Demonstrator: each model against the implicit run at 30 mm "
-                 "(dashed: the reference's wall time)", fontsize=11)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
 
 
 def maps(rows: list[dict], ref: CellField, path: Path) -> Path:
@@ -210,14 +159,8 @@ def markdown(rows: list[dict], ref_level: Level, ranks: int) -> str:
         "| flange [deg] | dish [deg] | closing force [kN] | force diff. |",
         "|---|---:|---:|---|---:|---:|---:|---:|---:|"]
     for r in rows:
-        lv = r["level"]
-        whole = (f"{r['rms_deg']:.2f}" + (f" ({r['cover']:.0%} covered)" if r["cover"] < 0.999
-                                          else ""))
-        force = "-" if lv.force_N is None else f"{lv.force_N / 1e3:.1f}"
-        fdiff = "-" if lv.force_N is None else f"{(lv.force_N / ref_f - 1):+.1%}"
-        lines.append(f"| {lv.label} | {lv.wall_s:.1f} | {lv.unknowns or '-'} | "
-                     f"{lv.shear_range[0]:.1f} to {lv.shear_range[1]:.1f} | {whole} | "
-                     f"{r['flange_deg']:.2f} | {r['dish_deg']:.2f} | {force} | {fdiff} |")
+        lines.append(f"{level_cells(r)} {r['flange_deg']:.2f} | {r['dish_deg']:.2f} |"
+                     f"{force_cells(r['level'], ref_f, 1e3, '.1f')}")
     lines += ["| macro explicit | not yet: its force with skins is off (issue 17) "
               "| | | | | | | |",
               "| meso (cell walls) | not yet: issue 20 | | | | | | | |", "",
@@ -234,14 +177,18 @@ def main() -> None:
     parser.add_argument("--ranks", type=int, default=2)
     parser.add_argument("--write", action="store_true", help="update docs/performance.md")
     args = parser.parse_args()
-    levels = [drape_level(args.work), *fe_levels(args.work, args.ranks)]
+    levels = [drape_level(args.work, "demonstrator", ("--tool", "lower")),
+              *fe_levels(args.work, args.ranks)]
     ref_level = next((lv for lv in levels if lv.label.endswith(f"{SIZES[-1]} mm")
                       and lv.force_N is not None), None)
     if ref_level is None:
         sys.exit(f"the reference run (implicit, {SIZES[-1]} mm) did not complete")
     rows = differences(levels, ref_level.field)
     FIG.mkdir(parents=True, exist_ok=True)
-    chart(rows, ref_level, FIG / "fidelity_ladder_demonstrator.png")
+    chart(rows, ref_level, FIG / "fidelity_ladder_demonstrator.png", "rms_deg",
+          ("RMS bottom-skin shear difference [deg]", "closing force difference [%]"),
+          "Demonstrator: each model against the implicit run at 30 mm (dashed: the "
+          "reference's wall time)")
     maps(rows, ref_level.field, FIG / "fidelity_ladder_demonstrator_maps.png")
     text = markdown(rows, ref_level, args.ranks)
     print(text)
