@@ -298,9 +298,15 @@ class SlidingTerm:
         return self.comm.allreduce(float(values.max()) if values.size else 0.0, op=MPI.MAX)
 
     def penetration(self) -> float:
-        """Largest penetration of a slave node [mm] (of the last evaluation)."""
-        g = self.gap[np.isfinite(self.gap)]
-        return max(self._max(-g), 0.0)
+        """Largest penetration of a slave node into the master [mm] (last evaluation).
+
+        Weighted like :meth:`violation` by the share the master holds: a node let go past
+        the master's edge is measured against the facet's extension, not against the
+        master, and its "penetration" (millimetres where a skin bends round the core's
+        edge) is none.
+        """
+        ok = np.isfinite(self.gap)
+        return max(self._max(-(self._held()[ok] * self.gap[ok])), 0.0)
 
     def pressure_range(self) -> tuple[float, float]:
         """Smallest and largest nodal pressure of the slave nodes in contact [MPa]."""
