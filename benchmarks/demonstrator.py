@@ -91,12 +91,9 @@ def _optimise(run: bool) -> dict:
     return record
 
 
-def _history(folder: Path) -> dict[str, np.ndarray]:
-    import csv
-
-    with open(folder / "history.csv", newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]} if rows else {}
+def _history(folder: Path) -> np.ndarray:
+    """A run's ``history.csv`` as a structured array (columns by name)."""
+    return np.genfromtxt(folder / "history.csv", delimiter=",", names=True)
 
 
 def common_path(a: Path, b: Path, force: str = "force_upper_z_N") -> str:

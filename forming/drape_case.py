@@ -372,9 +372,9 @@ def run_drape(case: str, sets: list[str], out: Path, tool: str | None = None,
     Returns:
         The contents of ``drape.json``.
     """
-    given = sets
-    sets, opts = drape_settings(sets, {"tool": tool, "spacing": spacing, "angle": angle,
-                                       "size": size})
+    assignments = list(sets)  # as given, drape settings included (the summary's)
+    sets, opts = drape_settings(assignments, {"tool": tool, "spacing": spacing,
+                                              "angle": angle, "size": size})
     tool, spacing, size = opts["tool"], opts["spacing"], opts["size"]
     angle = DEFAULT_ANGLE if opts["angle"] is None else opts["angle"]
     t0 = time.perf_counter()
@@ -408,6 +408,6 @@ def run_drape(case: str, sets: list[str], out: Path, tool: str | None = None,
     tmp = out / "drape.json.tmp"
     tmp.write_text(json.dumps(record, indent=2))
     tmp.replace(out / "drape.json")
-    tmp.write_text(json.dumps(_run_summary(record, given), indent=2))
+    tmp.write_text(json.dumps(_run_summary(record, assignments), indent=2))
     tmp.replace(out / "summary.json")
     return record

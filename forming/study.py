@@ -115,11 +115,13 @@ class Study:
             from forming.drape_case import DRAPE_SETTINGS
 
             known |= {f"drape.{k}" for k in DRAPE_SETTINGS}
+        solver_keys = () if self.drape else SOLVER_PREFIXES  # a drape has no solver
         for key in keys:
-            if key not in known and not (key.startswith(SOLVER_PREFIXES) and not self.drape):
-                raise InputError("--vary", f"{self.case} has no parameter {key!r}"
-                                 + ("" if self.drape or not key.startswith("drape.")
-                                    else " (drape settings need --drape)"))
+            if key in known or key.startswith(solver_keys):
+                continue
+            hint = (" (drape settings need --drape)" if key.startswith("drape.") and not self.drape
+                    else "")
+            raise InputError("--vary", f"{self.case} has no parameter {key!r}{hint}")
         if self.drape and self.ranks != 1:
             raise InputError("--ranks", "a drape runs on one process")
         if self.jobs < 1 or self.ranks < 1:
@@ -192,11 +194,9 @@ def _summary(folder: Path, assignments: list[str]) -> dict | None:
 
 def command(study: Study, folder: Path, assignments: list[str]) -> list[str]:
     """The command line of one run (``mpirun -n R`` in front with several ranks)."""
-    if study.drape:
-        cmd = [str(Path(sys.executable).parent / "forming"), "drape", study.case, "--out",
-               str(folder), "--quiet"]
-    else:
-        cmd = [sys.executable, str(find_case(study.case)), "--out", str(folder), "--quiet"]
+    run = ["-m", "forming.cli", "drape", study.case] if study.drape else [
+        str(find_case(study.case))]
+    cmd = [sys.executable, *run, "--out", str(folder), "--quiet"]
     for a in assignments:
         cmd += ["--set", a]
     if study.ranks > 1:

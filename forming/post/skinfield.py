@@ -140,9 +140,12 @@ class CellField:
                              f"({exc})") from exc
         inside = LinearTriInterpolator(tri, self.values)(p[:, 0], p[:, 1])
         out = np.ma.filled(inside.astype(float), np.nan)
-        d2 = np.sum((c[:, None, :] - c[None, :, :]) ** 2, axis=2)
-        np.fill_diagonal(d2, np.inf)
-        reach = float(np.sqrt(d2.min(axis=1).max()))
+        # each centre's nearest neighbour is one of its Delaunay neighbours
+        lengths = np.linalg.norm(c[tri.edges[:, 0]] - c[tri.edges[:, 1]], axis=1)
+        nearest_neighbour = np.full(len(c), np.inf)
+        for end in (0, 1):
+            np.minimum.at(nearest_neighbour, tri.edges[:, end], lengths)
+        reach = float(nearest_neighbour.max())
         missing = np.flatnonzero(np.isnan(out))
         if missing.size:
             dist = np.sum((p[missing, None, :] - c[None, :, :]) ** 2, axis=2)
