@@ -132,7 +132,7 @@ class Model:
     def __init__(self, scene: Scene):
         from forming.contact.interface import InterfaceTerm, interface_entities
         from forming.contact.sliding import SlidingTerm
-        from forming.contact.terms import ContactTerm
+        from forming.contact.terms import ContactTerm, nodal_rule
 
         self.scene = scene
         md = scene.mesh
@@ -157,13 +157,21 @@ class Model:
             data = [(i + 1, interface_entities(md, domains[itf.body], domains[itf.other],
                                                itf.region))
                     for i, itf in enumerate(scene.interfaces)]
-            dS = ufl.Measure("dS", domain=md.mesh, subdomain_data=data,
-                             metadata={"quadrature_rule": "vertex", "quadrature_degree": 1})
-            self.interfaces = [
-                InterfaceTerm(itf, self.bodies[itf.body], self.bodies[itf.other], dS(i + 1),
-                              min(thickness[itf.body], thickness[itf.other]))
-                for i, itf in enumerate(scene.interfaces)
-            ]
+            dS = ufl.Measure("dS", domain=md.mesh, subdomain_data=data)
+            self.interfaces = []
+            for i, itf in enumerate(scene.interfaces):
+                first, second = self.bodies[itf.body], self.bodies[itf.other]
+                # two quadratic faces are tied at all their 9 nodes; a quadratic face on
+                # a linear one only at its corners (tying all 9 to the linear face's trace
+                # locks the quadratic body: docs/theory.md section 11)
+                degree = min(first.spec.degree, second.spec.degree)
+                if first.spec.degree != second.spec.degree:
+                    log.warning("interface %s: a quadratic body on a linear one is tied at "
+                                "the linear faces' corners only (docs/theory.md section 11)",
+                                itf.region)
+                self.interfaces.append(InterfaceTerm(
+                    itf, first, second, dS(i + 1, metadata=nodal_rule(degree)),
+                    min(thickness[itf.body], thickness[itf.other]), degree))
         self.constraints: list[Constraint] = [*self.contacts, *self.interfaces]
         self.stabilisation = None
         if (spec := scene.stabilisation) is not None:

@@ -140,3 +140,49 @@ def test_hemisphere_skins_with_holder_full_stroke(tmp_path):
     assert m["shear_min_deg"] < -5.0 < 5.0 < m["shear_max_deg"]
     section = np.pi * 50.0**2
     assert 0.01 * 0.25 * section < m["punch_force_max_N"] < 4.0 * section
+
+
+def test_bonded_quadratic_faces_are_tied_at_every_node(tmp_path):
+    """A 10 x 10 x 20 mm column of three quadratic bodies of one elastic material (a core
+    between two skins as thick as half the core), tied by bonded interfaces, symmetry
+    planes at x = 0 and y = 0, its top pushed down by 0.01 mm: uniaxial stress, so the
+    top force is E A delta / H (measured 1.00075 of it: the finite strain of the
+    material's measure).
+
+    Quadratic faces tied only at their corners (the vertex rule) leave their other nodes
+    free, and the interface's nodal forces are not the consistent ones: the column then
+    carried 0.176 of the force. A failure means the interface's nodal rule or its
+    multipliers' degree no longer matches the bodies' (forming/contact/terms.py
+    ``nodal_rule``), which the meso model's bonded dummy flanges rely on.
+    """
+    from forming.job import Job
+    from forming.materials.elasticity import IsotropicElasticity
+    from forming.materials.solids import ElasticSolid
+    from forming.outline import Outline
+    from forming.run import simulate
+    from forming.sandwich import sandwich_blank
+    from forming.scene import Body, Displacement, Interface, Linear, Scene
+    from forming.solver.stepping import StepControl
+
+    E, delta, side, height = 100.0, 0.01, 10.0, 20.0
+    mesh = sandwich_blank(Outline.rectangle(side, side), core_thickness=10.0,
+                          skin_thickness=5.0, plies=1, element_size=5.0, core_layers=2)
+    names = ("core", "skin_bottom", "skin_top")
+    held = [Displacement("skin_bottom", "bottom", z=0.0, reaction=False),
+            Displacement("skin_top", "top", z=Linear(-delta))]
+    for b in names:
+        held += [Displacement(b, f"{b}_edge_xmin", x=0.0, reaction=False),
+                 Displacement(b, f"{b}_edge_ymin", y=0.0, reaction=False)]
+    material = ElasticSolid(IsotropicElasticity(E, 0.3))
+    scene = Scene(
+        name="column", mesh=mesh,
+        bodies=tuple(Body(b, material, region=b, degree=2) for b in names),
+        displacements=tuple(held),
+        interfaces=tuple(Interface(f"interface_{s}", "core", f"skin_{s}", kind="bonded",
+                                   tolerance=1e-7) for s in ("bottom", "top")))
+    s = simulate(Job(scene=scene, steps=StepControl(initial=1.0, max=1.0)), tmp_path,
+                 "column", {})
+    assert s["status"] == "completed", s.get("reason")
+    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    force = -h["reaction_skin_top_top_z_N"][-1]
+    assert force == pytest.approx(E * side**2 * delta / height, rel=2e-3)

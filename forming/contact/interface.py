@@ -2,16 +2,18 @@
 
 Small sliding, node to node: the two bodies are meshed conformingly, so each interface
 node of one body starts where a node of the other starts. The terms are integrated on
-the scene mesh's interior facets with the vertex rule (``dS``, "+" = the first body,
+the scene mesh's interior facets with the nodal rule (``dS``: the vertex rule, or the
+Gauss-Lobatto rule at a quadratic face's 9 nodes; "+" = the first body,
 whose outward normal, rotated with its deformation, is the contact normal; "-" = the
 other body). Gap, pressure and tangential traction therefore live at the interface
-nodes, and the multipliers are P1 functions of the first body. Normal contact (and a
+nodes, and the multipliers are functions of the first body's mesh, of the higher of
+the two bodies' degrees. Normal contact (and a
 bonded tie) is an augmented Lagrangian as for tools (:mod:`forming.contact.terms`):
 fixed multipliers within a Newton solve, Uzawa updates between solves. Friction is a
 Coulomb return mapping on the slip increment of the step with a penalty stick of
 elastic slip (docs/theory.md, section 11); its traction is history, updated at commit.
-Nodal values of the tractions come from assembling them against the P1 test function
-and dividing by the nodal area (the vertex rule makes this exact where the adjacent
+Nodal values of the tractions come from assembling them against the test function
+and dividing by the nodal area (the nodal rule makes this exact where the adjacent
 facets agree, and an area average where the deformed normal jumps between facets).
 """
 
@@ -81,12 +83,15 @@ class InterfaceTerm:
         spec: The scene's interface.
         first: The body whose outward normal is the contact normal ("+").
         second: The body on the other side ("-").
-        dS: The scene mesh's interior-facet measure restricted to this interface (vertex
-            rule).
+        dS: The scene mesh's interior-facet measure restricted to this interface, with
+            the nodal rule of ``degree`` (:func:`~forming.contact.terms.nodal_rule`).
         thickness: Smallest extent of the two bodies [mm] (caps the default tolerance).
+        degree: Degree of the multipliers: the higher of the two bodies' degrees (a
+            quadratic face is tied at all 9 of its nodes, not only at its corners).
     """
 
-    def __init__(self, spec: Interface, first, second, dS: ufl.Measure, thickness: float):
+    def __init__(self, spec: Interface, first, second, dS: ufl.Measure, thickness: float,
+                 degree: int = 1):
         self.spec = spec
         self.name = spec.region
         self.bodies = (spec.body, spec.other)
@@ -106,8 +111,8 @@ class InterfaceTerm:
         self.bonded = spec.kind == "bonded"
         self._eps = fem.Constant(parent, self.penalty)
         msh = first.mesh
-        W = fem.functionspace(msh, ("Lagrange", 1))
-        Wv = fem.functionspace(msh, ("Lagrange", 1, (3,)))
+        W = fem.functionspace(msh, ("Lagrange", degree))
+        Wv = fem.functionspace(msh, ("Lagrange", degree, (3,)))
         self._dofs = fem.locate_dofs_topological(W, 2, facets)
         self._x = W.tabulate_dof_coordinates()
         self._owned = self._dofs[self._dofs < W.dofmap.index_map.size_local]
@@ -169,7 +174,7 @@ class InterfaceTerm:
             self._stab = -self.stabilisation * step_jump
             traction = traction + self._stab
         self.traction = traction
-        # nodal values: assemble against the P1 test function, divide by the nodal area
+        # nodal values: assemble against the test function, divide by the nodal area
         w, wv = ufl.TestFunction(W), ufl.TestFunction(Wv)
         self._area = self._assemble(self._form(w("+") * dS))
         self._area_v = np.repeat(self._area, 3)

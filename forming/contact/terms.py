@@ -43,6 +43,20 @@ def surface_edge_min(msh, facets: np.ndarray) -> float:
     return msh.comm.allreduce(local, op=MPI.MIN)
 
 
+def nodal_rule(degree: int) -> dict[str, object]:
+    """Quadrature metadata whose points are a face's nodes, for a field of ``degree``.
+
+    The vertex rule on linear faces; on quadratic ones the Gauss-Lobatto rule whose
+    points are the face's 9 nodes (Simpson weights, all positive), so that every node of
+    the face carries its share, not only the corners. Corner-only contact leaves a
+    quadratic face's other nodes free: 6 times too compliant against a tool
+    (tests/test_explicit.py), 5.7 times across a bonded interface (tests/test_interfaces.py).
+    """
+    if degree == 1:
+        return {"quadrature_rule": "vertex", "quadrature_degree": 1}
+    return {"quadrature_rule": "GLL", "quadrature_degree": 3}  # Body accepts 1 or 2 only
+
+
 class ContactTerm:
     """Contact between a surface region of a body and one rigid tool.
 
@@ -74,15 +88,9 @@ class ContactTerm:
         self.friction = spec.friction
         # elastic slip of the penalty stick law (None: augmented stick constraint)
         self.elastic_slip = 0.005 * h if spec.stick == "elastic_slip" else None
-        # nodal integration: the vertex rule on linear faces; on quadratic ones the
-        # Gauss-Lobatto rule whose points are the face's 9 nodes (Simpson weights, all
-        # positive): every node of the face carries its share, not only the corners
-        # (corner-only contact leaves a quadratic face's other nodes free, 6 times too
-        # compliant: tests/test_explicit.py)
+        # nodal integration (the face's nodes are the quadrature points)
         degree = body.spec.degree if self._track is None else 1
-        self._ds = (body.domain.ds(spec.region, quadrature_rule="vertex", quadrature_degree=1)
-                    if degree == 1 else
-                    body.domain.ds(spec.region, quadrature_rule="GLL", quadrature_degree=3))
+        self._ds = body.domain.ds(spec.region, **nodal_rule(degree))
         W = fem.functionspace(msh, ("Lagrange", degree))
         self.lam_n = fem.Function(W, name=f"pressure_{tool.name}")
         self._offset = fem.Constant(parent, np.zeros(3))
