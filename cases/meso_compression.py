@@ -17,6 +17,11 @@ against plate buckling of the walls, and a picture of the buckled walls.
 ``load=shear_x`` or ``load=shear_y`` moves the bonded top platen sideways instead (the
 platens keep their distance: a C273 shear test; nominal shear strain = move / height):
 ``shear_modulus_MPa``, the transverse shear modulus the macro core needs.
+``load=tension_x`` or ``load=tension_y`` pulls the walls in their plane instead, by the
+patch's cut faces, with no platens (at least 3 cells along y, 2 along x): the lattice's
+``inplane_modulus_MPa`` and ``inplane_poisson`` (measured where the patch has the
+lattice's own condition: ``forming/meso/inplane.py``) against Gibson and Ashby's values,
+and the patch's own ``patch_modulus_MPa``; the in-plane modulus the macro core needs.
 
 The bottom platen is bonded; the top one is bonded too (default) or, with
 ``platen=contact``, a rigid tool that touches the wall edges with friction (the paper's
@@ -74,7 +79,9 @@ from forming.meso.honeycomb import (
     HoneycombCell,
     HoneycombPatch,
     honeycomb_mesh,
+    patch_box,
 )
+from forming.meso.inplane import AXES, gibson_ashby_inplane, inplane_loading, lattice_strains
 from forming.meso.post import folded_walls_picture, wall_strain_extremes
 from forming.output import plot_curves
 from forming.post.fields import fracture_energy
@@ -130,7 +137,8 @@ class Params:
     flange_width: float = 1.0  # dummy flange width into the pores [mm] (our estimate)
     flange_thickness: float = 0.3  # dummy flange thickness [mm] (our estimate)
     max_step: float = 0.05  # largest load step (fraction of the stroke)
-    load: Literal["compression", "shear_x", "shear_y"] = "compression"  # or transverse shear
+    # or transverse shear, or in-plane tension
+    load: Literal["compression", "shear_x", "shear_y", "tension_x", "tension_y"] = "compression"
     self_contact: bool = True  # walls touch each other (explicit; implicit: stop there)
 
 
@@ -150,11 +158,17 @@ def build(p: Params) -> Job:
             nonnegative=("imperfection", "stabilisation", "platen_friction",
                          "damage_viscosity"),
             fraction=("strain",))
-    shear = p.load != "compression"
+    shear = p.load.startswith("shear")
     if shear and (p.platen != "bonded" or p.buckling):
         raise InputError("--set load", "transverse shear moves bonded platens "
                          "(platen=bonded, buckling=false)")
     patch = patch_of(p)
+    if p.load in AXES:
+        if p.variant != "original" or p.buckling or p.stabilisation <= 0:
+            raise InputError("--set load", "in-plane tension pulls the walls alone, with the "
+                             "stabilisation holding the free rigid motion (variant=original, "
+                             "buckling=false, stabilisation > 0)")
+        return _tension(p, patch)
     mesh = honeycomb_mesh(patch)
     cardboard = IsotropicElasticity(p.wall_modulus, p.wall_poisson)
     material = (FracturingSolid(cardboard, p.fracture_strain, p.fracture_energy,
@@ -292,6 +306,62 @@ def build(p: Params) -> Job:
         probe=probe, metrics=metrics, plots=plots, pictures=pictures,
         response=Response(columns[0], stroke, scale, "platen force on the walls"),
     )
+
+
+def _tension(p: Params, patch: HoneycombPatch) -> Job:
+    """The patch pulled in its plane by its cut faces (``load=tension_x|tension_y``)."""
+    cardboard = IsotropicElasticity(p.wall_modulus, p.wall_poisson)
+    material = (FracturingSolid(cardboard, p.fracture_strain, p.fracture_energy,
+                                erosion=p.erosion, viscosity=p.damage_viscosity,
+                                density=WALL_DENSITY)
+                if p.fracture else ElasticSolid(cardboard, density=WALL_DENSITY))
+    held, stroke, column, section = inplane_loading(patch, p.load, p.strain)
+    scene = Scene(name="meso_compression", mesh=honeycomb_mesh(patch),
+                  bodies=(Body("walls", material, degree=2),), displacements=held,
+                  stabilisation=Stabilisation(p.stabilisation))
+    axis = AXES[p.load]
+    name = "xy"[axis]
+    modulus_ga, poisson_ga = gibson_ashby_inplane(patch.cell, axis, p.wall_modulus,
+                                                  p.wall_poisson)
+    total = f"reaction_cut_{name}max_{name}_N"
+    whole = patch_box(patch.cell, *patch.cells)[2:][1 - axis] * patch.height
+
+    def lattice(rec) -> tuple[np.ndarray, np.ndarray]:
+        """The lattice's strain along the load and its stress (see forming.meso.inplane)."""
+        nominal = rec.column("t") * p.strain
+        strain = nominal if axis == 0 else rec.column("lattice_strain")
+        return strain, rec.column(column) / section
+
+    def first(values: np.ndarray) -> float:
+        return float(values[1]) if len(values) > 1 else float("nan")
+
+    def metrics(rec, model) -> dict:
+        e, s = lattice(rec)
+        nominal = rec.column("t") * p.strain
+        return {"relative_density": patch.relative_density(),
+                "inplane_modulus_MPa": first(s) / first(e),
+                "gibson_ashby_inplane_MPa": modulus_ga,
+                "inplane_poisson": -first(rec.column("lateral_strain")) / first(e),
+                "gibson_ashby_poisson": poisson_ga,
+                "patch_modulus_MPa": first(rec.column(total)) / whole / first(nominal),
+                "final_strain": float(nominal[-1]), "final_stress_MPa": float(s[-1]),
+                "stabilisation_energy_fraction": float(
+                    rec.column("stabilisation_energy_Nmm")[-1]
+                    / max(rec.column("internal_work_Nmm")[-1], 1e-300))}
+
+    def plots(rec, out: Path) -> list[Path]:
+        e, s = lattice(rec)
+        return [plot_curves(out / "stress_strain.png",
+                            [(e, s, "computed (meso, lattice measures)", "o-"),
+                             (e, modulus_ga * e, "Gibson and Ashby (wall bending)", "k--")],
+                            "strain of the lattice", "stress [MPa]",
+                            f"Meso in-plane tension along {name}, {p.cells[0]} x "
+                            f"{p.cells[1]} cells")]
+
+    return Job(scene=scene, steps=StepControl(initial=p.max_step, max=p.max_step, min=1e-5),
+               newton=NewtonOptions(), plots=plots, metrics=metrics,
+               probe=lambda model: lattice_strains(model.body, patch, p.load),
+               response=Response(total, stroke, 1.0, "pull on the walls"))
 
 
 def _linear_buckling(scene: Scene, strain: float) -> np.ndarray:

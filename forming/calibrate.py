@@ -1,16 +1,19 @@
 """Meso to macro: the macro core's C365 curve from a meso-scale compression run.
 
-``forming calibrate meso_compression --out DIR [--set ...] [--no-shear]`` runs the meso case (its
-cell walls modelled) into ``DIR/meso``, turns its nominal stress-strain curve into the
-curve the macro core reads (:meth:`CompressionCurve.from_csv`), and checks it: the macro
+``forming calibrate meso_compression --out DIR [--set ...] [--no-moduli]`` runs the meso
+case (its cell walls modelled) into ``DIR/meso``, turns its nominal stress-strain curve
+into the curve the macro core reads (:meth:`CompressionCurve.from_csv`), and checks it: the macro
 ``core_compression`` run with that curve and the meso run's initial modulus, in
 ``DIR/check``, must reproduce it (its ``curve_rmse_rel``). Written into ``DIR``:
 
 * ``c365_meso.csv``: the curve, with its provenance in ``#`` lines;
-* ``calibration.json``: the through-thickness modulus, the transverse shear moduli
+* ``calibration.json``: the through-thickness modulus; the transverse shear moduli
   along x (ribbon) and y from two shear runs of the same patch (``DIR/shear_x``,
-  ``DIR/shear_y``; ``--no-shear`` skips them), where and why the curve was cut, the
-  check's error, and the command that uses the curve;
+  ``DIR/shear_y``); the in-plane moduli and Poisson ratios along x and y from two
+  in-plane tension runs (``DIR/tension_x``, ``DIR/tension_y``; on the same cells, at
+  least 2 x 3 of them: :mod:`forming.meso.inplane`); ``--no-moduli`` skips those four
+  runs; where and why the curve was cut, the check's error, and the command that uses
+  the curve with the moduli the macro core takes;
 * ``calibration.png``: the meso curve, the shipped macro curve and the calibrated macro
   run on one plot.
 
@@ -122,14 +125,93 @@ def _foam_with(modulus: float):
 
 
 SHEAR_STRAIN = 0.005  # nominal shear strain of the shear runs (elastic walls' range)
+TENSION_STRAIN = 0.002  # nominal strain of the in-plane tension runs (elastic walls)
 
 
-def calibrate(case: str, out: Path, assignments: list[str], shear: bool = True) -> dict:
+def _assigned(assignments: list[str], key: str) -> str | None:
+    """The last value ``assignments`` give ``key`` (None: not given)."""
+    values = [a.split("=", 1)[1] for a in assignments if a.split("=", 1)[0].strip() == key]
+    return values[-1].strip() if values else None
+
+
+def tension_assignments(assignments: list[str], load: str) -> list[str]:
+    """The settings of an in-plane tension run of the patch ``assignments`` describe.
+
+    The same walls and cells, at least 2 x 3 cells (the lattice measures need inner rows
+    of ribbon walls, :func:`forming.meso.inplane.check_patch`), the walls alone
+    (``variant=original``), one load step to :data:`TENSION_STRAIN`, and the default
+    stabilisation if the patch's is off (it holds the free rigid motion).
+    """
+    cells = _assigned(assignments, "cells")
+    nx, ny = ((int(c) for c in cells.split(",")) if cells else (3, 3))
+    extra = [f"load={load}", f"strain={TENSION_STRAIN!r}", "max_step=1.0", "buckling=false",
+             "variant=original", f"cells={max(nx, 2)},{max(ny, 3)}"]
+    stab = _assigned(assignments, "stabilisation")
+    if stab is not None and float(stab) <= 0.0:
+        extra.append("stabilisation=0.0002")
+    return [*assignments, *extra]
+
+
+def moduli(case: str, out: Path, assignments: list[str]) -> dict:
+    """Transverse shear and in-plane moduli of the patch, four elastic runs (collective).
+
+    Shear along x (the ribbon) and y (``load=shear_x|shear_y`` to :data:`SHEAR_STRAIN`,
+    in ``out/shear_x|shear_y``): ``G_through``. In-plane tension along x and y
+    (:func:`tension_assignments`, in ``out/tension_x|tension_y``): the lattice's moduli
+    and Poisson ratios, and their means, what the macro core's transversely isotropic
+    law takes (``E_inplane``, ``nu_inplane``).
+    """
+    from forming.case import run_case
+
+    found: dict[str, float | None] = {}
+    for load in ("shear_x", "shear_y"):
+        run = run_case(case, out / load, [*assignments, f"load={load}",
+                                          f"strain={SHEAR_STRAIN!r}", "max_step=0.5",
+                                          "buckling=false"])
+        found[f"shear_modulus_{load[-1]}z_MPa"] = run.get("metrics", {}).get(
+            "shear_modulus_MPa")
+    for load in ("tension_x", "tension_y"):
+        sets = tension_assignments(assignments, load)
+        run = run_case(case, out / load, sets)
+        m = run.get("metrics", {})
+        found[f"inplane_modulus_{load[-1]}_MPa"] = m.get("inplane_modulus_MPa")
+        found[f"inplane_poisson_{load[-1]}"] = m.get("inplane_poisson")
+        found[f"gibson_ashby_inplane_{load[-1]}_MPa"] = m.get("gibson_ashby_inplane_MPa")
+        found["tension_cells"] = _assigned(sets, "cells")
+    pairs = [(found["inplane_modulus_x_MPa"], found["inplane_modulus_y_MPa"]),
+             (found["inplane_poisson_x"], found["inplane_poisson_y"])]
+    means = [0.5 * (a + b) if a is not None and b is not None else None for a, b in pairs]
+    return found | {"E_inplane_MPa": means[0], "nu_inplane": means[1]}
+
+
+def core_overrides(modulus: float, found: dict) -> dict[str, float]:
+    """The calibrated moduli as keyword arguments of ``honeycomb_core``.
+
+    With ``curve=`` the calibrated curve, they make
+    :func:`~forming.materials.library.honeycomb_core` the calibrated core. ``E_through``
+    is the meso run's modulus; ``G_through`` the mean of the two shear moduli,
+    ``E_inplane`` that of the two tension moduli, where they were run. The in-plane
+    Poisson ratio is given only if the transversely isotropic law can take it (below 1):
+    a bending-dominated regular hexagonal lattice has 1 (Gibson and Ashby).
+    """
+    out = {"E_through": modulus}
+    shear = [found.get(f"shear_modulus_{a}z_MPa") for a in "xy"]
+    if all(g is not None for g in shear):
+        out["G_through"] = 0.5 * (shear[0] + shear[1])
+    if found.get("E_inplane_MPa") is not None:
+        out["E_inplane"] = found["E_inplane_MPa"]
+    nu = found.get("nu_inplane")
+    if nu is not None and -1.0 < nu < 1.0:
+        out["nu_inplane"] = nu
+    return out
+
+
+def calibrate(case: str, out: Path, assignments: list[str], with_moduli: bool = True
+              ) -> dict:
     """Run the meso case, write the macro curve and check it (collective).
 
-    With ``shear``, the same patch is also sheared along x (the ribbon) and y
-    (``load=shear_x|shear_y`` to :data:`SHEAR_STRAIN`, in ``out/shear_x|shear_y``): the
-    transverse shear moduli the macro core needs (``G_through``).
+    With ``with_moduli``, :func:`moduli` also runs the patch in transverse shear and
+    in-plane tension: the macro core's other moduli.
 
     Raises:
         InputError: ``case`` is not a meso case, or its run gave too short a curve.
@@ -166,16 +248,9 @@ def calibrate(case: str, out: Path, assignments: list[str], shear: bool = True) 
     n = e.size
     against_meso = float(np.sqrt(np.mean((np.interp(e_raw[:n], *macro) - s_raw[:n]) ** 2))
                          / np.sqrt(np.mean(s_raw[:n] ** 2)))
-    moduli = {}
-    if shear:
-        for load in ("shear_x", "shear_y"):
-            run = run_case(case, out / load, [*assignments, f"load={load}",
-                                              f"strain={SHEAR_STRAIN!r}", "max_step=0.5",
-                                              "buckling=false"])
-            moduli[f"shear_modulus_{load[-1]}z_MPa"] = run.get("metrics", {}).get(
-                "shear_modulus_MPa")
+    found = moduli(case, out, assignments) if with_moduli else {}
     result = {
-        "case": case, "assignments": assignments, **moduli,
+        "case": case, "assignments": assignments, **found,
         "meso_status": meso["status"], "meso_strain_reached": float(e_raw[-1]),
         "curve": str(curve_path), "points": int(e.size), "strain_end": float(e[-1]),
         "cut": cut or None, "modulus_MPa": modulus,
@@ -186,6 +261,7 @@ def calibrate(case: str, out: Path, assignments: list[str], shear: bool = True) 
         "check_rmse_rel": check.get("metrics", {}).get("curve_rmse_rel"),
         "macro_against_meso_rmse_rel": against_meso,
         "use": "forming run core_compression " + " ".join(f"--set {x}" for x in sets),
+        "core_overrides": core_overrides(modulus, found),
     }
     if comm.rank == 0:
         (out / "calibration.json").write_text(json.dumps(result, indent=2) + "\n")

@@ -143,7 +143,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     out = args.out or Path("results") / f"{args.case}_calibration"
     r, code = guarded(comm, lambda: calibrate(args.case, out, args.assignments,
-                                              not args.no_shear))
+                                              not args.no_moduli))
     if code is not None:
         return code
     if comm.rank == 0:
@@ -152,10 +152,12 @@ def _calibrate(args: argparse.Namespace) -> int:
         if r["cut"]:
             print(f"  ends early: {r['cut']}")
         print(f"  macro check: {r['check_status']}, relative RMS error {r['check_rmse_rel']}")
-        for key in ("shear_modulus_xz_MPa", "shear_modulus_yz_MPa"):
+        for key in ("shear_modulus_xz_MPa", "shear_modulus_yz_MPa", "inplane_modulus_x_MPa",
+                    "inplane_modulus_y_MPa", "inplane_poisson_x", "inplane_poisson_y"):
             if key in r:
                 print(f"  {key} = {r[key]}")
         print(f"  use it: {r['use']}")
+        print(f"  the macro core's moduli: honeycomb_core(curve=..., **{r['core_overrides']})")
         print(f"outputs in {Path(out).resolve()}")
     return 0 if r["check_status"] == "completed" else 1
 
@@ -318,8 +320,9 @@ def main(argv: list[str] | None = None) -> None:
                      help="output folder (default results/<case>_calibration)")
     cal.add_argument("--set", dest="assignments", action="append", default=[],
                      metavar="KEY=VALUE", help="set a parameter of the meso case (repeatable)")
-    cal.add_argument("--no-shear", action="store_true",
-                     help="skip the two transverse shear runs (the shear moduli)")
+    cal.add_argument("--no-moduli", action="store_true",
+                     help="skip the transverse shear and in-plane tension runs (the "
+                          "shear and in-plane moduli)")
     cal.add_argument("--quiet", action="store_true", help="warnings and errors only")
     opt = sub.add_parser("optimise-blank", help="net-shape blank: form, map the trim line "
                                                 "back, re-mesh, until the edge meets it")

@@ -20,6 +20,7 @@ from mpi4py import MPI
 from forming.errors import InputError
 from forming.mesh import MeshData, mesh_from_gmsh
 from forming.outline import Outline, check_integer, check_positive
+from forming.parallel import on_root
 
 _QUAD, _HEX = 3, 5  # gmsh element types
 FACES = ("bottom", "top", "xmin", "ymin", "edge")
@@ -171,25 +172,19 @@ def sliding_sandwich_mesh(outline: Outline, core_thickness: float = 20.0,
     if not started:
         gmsh.initialize(interruptible=False)
     gmsh.option.setNumber("General.Terminal", 0)
-    failure = None
+    def build() -> None:
+        core2d = quadrilaterals(gmsh, outline, h)
+        skin2d = core2d if refinement == 1 else quadrilaterals(gmsh, outline, h / refinement)
+        bodies = {"skin_bottom": _extrude(*skin2d, _levels(0.0, plies * t, plies),
+                                          outline.bounds),
+                  "core": _extrude(*core2d, _levels(plies * t, H, core_layers),
+                                   outline.bounds),
+                  "skin_top": _extrude(*skin2d, _levels(plies * t + H, plies * t, plies),
+                                       outline.bounds)}
+        _discrete_model(gmsh, bodies)
+
     try:
-        if comm.rank == 0:
-            try:
-                core2d = quadrilaterals(gmsh, outline, h)
-                skin2d = core2d if refinement == 1 else quadrilaterals(gmsh, outline,
-                                                                       h / refinement)
-                bodies = {"skin_bottom": _extrude(*skin2d, _levels(0.0, plies * t, plies),
-                                                  outline.bounds),
-                          "core": _extrude(*core2d, _levels(plies * t, H, core_layers),
-                                           outline.bounds),
-                          "skin_top": _extrude(*skin2d, _levels(plies * t + H, plies * t,
-                                                                plies), outline.bounds)}
-                _discrete_model(gmsh, bodies)
-            except InputError as exc:
-                failure = (exc.field, str(exc).removeprefix(f"{exc.field}: "))
-        failure = comm.bcast(failure, root=0)
-        if failure is not None:
-            raise InputError(*failure)
+        on_root(comm, build)
         return mesh_from_gmsh(gmsh, comm)
     finally:
         if comm.rank == 0 and "sliding_sandwich" in gmsh.model.list():

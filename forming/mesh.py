@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +11,7 @@ from mpi4py import MPI
 
 from forming import compat
 from forming.errors import InputError
+from forming.parallel import on_root
 
 
 @dataclass(frozen=True)
@@ -20,23 +21,37 @@ class MeshData:
     Attributes:
         mesh: The DOLFINx mesh.
         cell_tags: Volume physical groups.
-        facet_tags: Surface physical groups.
+        facet_tags: Surface physical groups (disjoint: one tag per facet).
         names: Physical group name -> (dimension, tag).
+        unions: Facet group name -> tags of the disjoint facet groups it is made of
+            (overlapping groups, such as all lateral faces of a sandwich).
     """
 
     mesh: object
     cell_tags: object
     facet_tags: object
     names: dict[str, tuple[int, int]]
+    unions: dict[str, tuple[int, ...]] = field(default_factory=dict)
 
     def facets(self, name: str) -> np.ndarray:
-        """Local facet indices of the surface group ``name``."""
-        dim, tag = self._lookup(name, 2)
-        return self.facet_tags.find(tag)
+        """Local facet indices of the surface group ``name`` (disjoint group or union)."""
+        if name in self.names and self.names[name][0] == 2:
+            return self.facet_tags.find(self.names[name][1])
+        found = [self.facet_tags.find(t) for t in self.facet_tag_ids(name)]
+        return np.unique(np.concatenate(found)).astype(np.int32)
 
     def facet_tag_ids(self, name: str) -> tuple[int, ...]:
-        """Facet tags of the surface group ``name`` (for ``ds(subdomain_id=...)``)."""
-        return (self._lookup(name, 2)[1],)
+        """Facet tags of the surface group ``name`` (for ``ds(subdomain_id=...)``).
+
+        Raises:
+            InputError: No surface group of that name.
+        """
+        if name in self.names and self.names[name][0] == 2:
+            return (self.names[name][1],)
+        if name in self.unions:
+            return self.unions[name]
+        known = sorted({n for n, (d, _t) in self.names.items() if d == 2} | set(self.unions))
+        raise InputError("region", f"no 2D physical group {name!r}; known: {known}")
 
     def cells(self, name: str) -> np.ndarray:
         """Local cell indices of the volume group ``name``."""
@@ -187,22 +202,24 @@ def _generate(parts: list[Block], comm: MPI.Comm, prefix: bool) -> MeshData:
         gmsh.initialize(interruptible=False)
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("_".join(b.name for b in parts))
+    def build() -> None:
+        tag = 1
+        volumes = []
+        for i, block in enumerate(parts, start=1):
+            vol, faces = _add_block(gmsh, block)
+            volumes.append(vol)
+            gmsh.model.addPhysicalGroup(3, [vol], i, name=block.name)
+            for fname, ents in faces.items():
+                gmsh.model.addPhysicalGroup(
+                    2, ents, tag, name=f"{block.name}_{fname}" if prefix else fname)
+                tag += 1
+        gmsh.model.mesh.generate(3)
+        for block, vol in zip(parts, volumes, strict=True):
+            if block.warp is not None:
+                _warp(gmsh, vol, block)
+
     try:
-        if comm.rank == 0:
-            tag = 1
-            volumes = []
-            for i, block in enumerate(parts, start=1):
-                vol, faces = _add_block(gmsh, block)
-                volumes.append(vol)
-                gmsh.model.addPhysicalGroup(3, [vol], i, name=block.name)
-                for fname, ents in faces.items():
-                    gmsh.model.addPhysicalGroup(
-                        2, ents, tag, name=f"{block.name}_{fname}" if prefix else fname)
-                    tag += 1
-            gmsh.model.mesh.generate(3)
-            for block, vol in zip(parts, volumes, strict=True):
-                if block.warp is not None:
-                    _warp(gmsh, vol, block)
+        on_root(comm, build, gmsh_field="mesh")
         return mesh_from_gmsh(gmsh, comm)
     finally:
         gmsh.model.remove()
@@ -225,12 +242,14 @@ def from_file(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD) -> MeshData:
     if not initialised:
         gmsh.initialize(interruptible=False)
     gmsh.option.setNumber("General.Terminal", 0)
+    def read() -> None:
+        try:
+            gmsh.open(str(p))
+        except Exception as exc:  # gmsh raises a bare Exception
+            raise InputError("mesh.path", f"gmsh cannot read {p}: {exc}") from exc
+
     try:
-        if comm.rank == 0:
-            try:
-                gmsh.open(str(p))
-            except Exception as exc:  # gmsh raises a bare Exception
-                raise InputError("mesh.path", f"gmsh cannot read {p}: {exc}") from exc
+        on_root(comm, read)
         return mesh_from_gmsh(gmsh, comm)
     finally:
         gmsh.clear()

@@ -6,11 +6,48 @@ share of the values. Calling one inside an ``if rank == 0:`` branch hangs the ru
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from forming.errors import InputError
+
+
+def on_root[T](comm: MPI.Comm, work: Callable[[], T],
+               gmsh_field: str | None = None) -> T | None:
+    """Run ``work`` on rank 0 alone; an error there is raised on every rank (collective).
+
+    Meshing and file reading happen on rank 0 while the other ranks wait for its mesh in
+    a collective call: an error raised on rank 0 alone would leave them waiting forever.
+    Here it is sent to every rank and raised there: an :class:`InputError` as itself
+    (its field and message; the exception object does not pickle), a bare ``Exception``
+    (what gmsh raises) as an :class:`InputError` of ``gmsh_field`` if given, anything
+    else as a ``RuntimeError`` that names it.
+
+    Returns:
+        ``work``'s result on rank 0, None on the other ranks.
+    """
+    result, failure, cause = None, None, None
+    if comm.rank == 0:
+        try:
+            result = work()
+        except InputError as exc:
+            failure, cause = (exc.field, str(exc).removeprefix(f"{exc.field}: ")), exc
+        except Exception as exc:
+            if gmsh_field is not None and type(exc) is Exception:
+                failure = (gmsh_field, f"gmsh failed: {exc}")
+            else:
+                failure = (None, f"{exc!r} on rank 0")
+            cause = exc
+    failure = comm.bcast(failure, root=0)
+    if failure is None:
+        return result
+    if failure[0] is None:
+        raise RuntimeError(failure[1]) from cause
+    raise InputError(*failure) from cause
 
 
 def global_max(comm: MPI.Comm, values, initial: float = -np.inf) -> float:

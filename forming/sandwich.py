@@ -18,7 +18,7 @@ Facet groups and overlaps:
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from mpi4py import MPI
@@ -26,6 +26,7 @@ from mpi4py import MPI
 from forming.errors import InputError
 from forming.mesh import MeshData, mesh_from_gmsh
 from forming.outline import Outline, check_integer, check_positive
+from forming.parallel import on_root
 
 log = logging.getLogger(__name__)
 
@@ -44,36 +45,14 @@ class SandwichMesh(MeshData):
     """A :class:`~forming.mesh.MeshData` of a sandwich blank with overlapping facet groups.
 
     Attributes:
-        unions: Facet group name -> tags of the disjoint facet groups it is made of
-            (``edge``, ``free_edge``, ``core_edge``, ``skin_bottom_edge``,
-            ``skin_top_edge``, ``xmin``, ``ymin``).
         layers: (body, z_bottom, z_top) of every extruded layer from the bottom up;
             a skin has one entry per ply, so the ply boundaries are recorded here.
+
+    Its ``unions`` (:class:`~forming.mesh.MeshData`): ``edge``, ``free_edge``,
+    ``core_edge``, ``skin_bottom_edge``, ``skin_top_edge``, ``xmin``, ``ymin``.
     """
 
-    unions: dict[str, tuple[int, ...]] = field(default_factory=dict)
     layers: tuple[tuple[str, float, float], ...] = ()
-
-    def facets(self, name: str) -> np.ndarray:
-        """Local facet indices of the surface group ``name`` (disjoint group or union)."""
-        if name in self.names and self.names[name][0] == 2:
-            return super().facets(name)
-        tags = self.facet_tag_ids(name)
-        found = [self.facet_tags.find(t) for t in tags]
-        return np.unique(np.concatenate(found)).astype(np.int32)
-
-    def facet_tag_ids(self, name: str) -> tuple[int, ...]:
-        """Facet tags of the surface group ``name``, e.g. for ``ds(subdomain_id=...)``.
-
-        Raises:
-            InputError: No surface group of that name.
-        """
-        if name in self.names and self.names[name][0] == 2:
-            return (self.names[name][1],)
-        if name in self.unions:
-            return self.unions[name]
-        known = sorted({n for n, (d, _t) in self.names.items() if d == 2} | set(self.unions))
-        raise InputError("region", f"no 2D physical group {name!r}; known: {known}")
 
     def owned_cell_count(self, name: str) -> int:
         """Number of cells of the volume group ``name`` over all ranks."""
@@ -99,14 +78,6 @@ _OPTIONS = {
     "Mesh.MeshSizeFromCurvature": 0,
     "Mesh.MeshSizeExtendFromBoundary": 1,
 }
-
-
-class _Failure(Exception):
-    """A failure on the meshing rank, re-raised on every rank."""
-
-    def __init__(self, field_: str | None, message: str):
-        super().__init__(message)
-        self.field = field_
 
 
 def _build(gmsh, outline: Outline, layers: list[tuple[str, float, int, list[float]]],
@@ -207,7 +178,7 @@ def _generate(gmsh, base: int) -> None:
         log.debug("recombination algorithm %d left %d non-quadrilaterals", algorithm, n_other)
         gmsh.model.mesh.clear()
     else:
-        raise _Failure(
+        raise InputError(
             "mesh.outline",
             f"gmsh left {n_other} triangles in the in-plane mesh; try another element_size "
             "or a simpler outline",
@@ -215,14 +186,14 @@ def _generate(gmsh, base: int) -> None:
     quads = tags[0]
     quality = gmsh.model.mesh.getElementQualities(quads, "minSJ")
     if quality.min() <= 0.0:
-        raise _Failure("mesh.outline", "gmsh produced inverted quadrilaterals")
+        raise InputError("mesh.outline", "gmsh produced inverted quadrilaterals")
     if quality.min() < 0.2:
         log.warning("poorly shaped quadrilaterals: min scaled Jacobian %.3f", quality.min())
     gmsh.model.mesh.generate(3)
     types, tags, _ = gmsh.model.mesh.getElements(3)
     bad = {ty: len(t) for ty, t in zip(types, tags, strict=True) if ty != _GMSH_HEX}
     if bad:
-        raise _Failure(None, f"extrusion produced non-hexahedral elements {bad}")
+        raise RuntimeError(f"extrusion produced non-hexahedral elements {bad}")
 
 
 def sandwich_blank(
@@ -319,26 +290,10 @@ def sandwich_blank(
         gmsh.option.setNumber(k, v)
     gmsh.model.add(name)
     try:
-        # Raise on every rank, or the others would wait for the mesh forever.
-        failure, cause = None, None
-        facet_groups: dict[str, int] = {}
-        unions: dict[str, list[str]] = {}
-        if comm.rank == 0:
-            try:
-                facet_groups, unions = _build(gmsh, outline, layers, h, structured)
-            except _Failure as exc:
-                failure, cause = (exc.field, str(exc)), exc
-            except Exception as exc:
-                if type(exc) is Exception:  # gmsh raises a bare Exception
-                    failure = ("mesh.outline", f"gmsh failed to mesh the outline: {exc}")
-                else:
-                    failure = (None, f"building the blank failed: {exc!r}")
-                cause = exc
-        failure = comm.bcast(failure, root=0)
-        if failure is not None:
-            if failure[0] is None:
-                raise RuntimeError(failure[1]) from cause
-            raise InputError(*failure) from cause
+        # every rank raises a failure of the meshing rank (the others wait for its mesh)
+        built = on_root(comm, lambda: _build(gmsh, outline, layers, h, structured),
+                        gmsh_field="mesh.outline")
+        facet_groups, unions = built if built is not None else ({}, {})
         facet_groups, unions = comm.bcast((facet_groups, unions), root=0)
         md = mesh_from_gmsh(gmsh, comm)
     finally:

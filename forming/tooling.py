@@ -17,6 +17,7 @@ from forming.blanks import Blank
 from forming.cad import HemisphereToolSet, Tessellation, hemisphere_tool_files
 from forming.contact.shapes import AnnularPlate, HemisphericalPunch
 from forming.contact.surface import SurfaceTool
+from forming.parallel import on_root
 from forming.scene import Contact, Linear, Tool
 
 Stick = Literal["augmented", "elastic_slip"]
@@ -36,9 +37,12 @@ def _surface_tools(tools: HemisphereToolSet, source: Source, tess: Tessellation,
     """The hemisphere tools read back from generated STL or STEP files, placed."""
     comm = MPI.COMM_WORLD
     directory = generated_dir() / "tools" / tools.key(tess)
-    if comm.rank == 0 and not (directory / "holder.step").is_file():
-        hemisphere_tool_files(directory, tools, tess)
-    comm.barrier()
+
+    def write() -> None:
+        if not (directory / "holder.step").is_file():
+            hemisphere_tool_files(directory, tools, tess)
+
+    on_root(comm, write, gmsh_field="tools")  # the others wait for the files
     suffix = ".stl" if source == "stl" else ".step"
     return {name: SurfaceTool(directory / f"{name}{suffix}", translate=(0.0, 0.0, z),
                               tessellation=tess)

@@ -161,3 +161,41 @@ def test_two_ranks_error_on_one_rank_exits_promptly(tmp_path):
     proc = run_mpi([str(script), "--out", str(tmp_path / "out")], timeout=30)
     assert proc.returncode == EXIT_CODES["input"], proc.stderr[-2000:]
     assert "cannot read the curve on rank 1" in proc.stderr
+
+
+@pytest.mark.mpi
+def test_an_error_of_the_meshing_rank_is_raised_on_every_rank(tmp_path):
+    """Meshes and tool files are made on rank 0 while the other ranks wait for them: an
+    error there (a file gmsh cannot read, a failure of the meshing code) is raised on
+    every rank, as the same ``InputError`` with its field, or as a ``RuntimeError`` that
+    names it, so a script that calls the library under mpirun neither hangs nor leaves
+    the other ranks without the reason. A failure means a rank-0 block that keeps its
+    error to itself (forming.parallel.on_root)."""
+    garbage = tmp_path / "garbage.msh"
+    garbage.write_text("not a mesh\n")
+    script = tmp_path / "root_errors.py"
+    script.write_text(
+        "import sys\n"
+        "from mpi4py import MPI\n"
+        "import forming\n"
+        "from forming.errors import InputError\n"
+        "from forming.mesh import from_file\n"
+        "from forming.parallel import on_root\n"
+        "rank = MPI.COMM_WORLD.rank\n"
+        "try:\n"
+        f"    from_file({str(garbage)!r})\n"
+        "except InputError as exc:\n"
+        "    print(f'rank {rank} input {exc.field}', flush=True)\n"
+        "def broken():\n"
+        "    raise KeyError('lost')\n"
+        "try:\n"
+        "    on_root(MPI.COMM_WORLD, broken)\n"
+        "except RuntimeError as exc:\n"
+        "    print(f'rank {rank} runtime {exc}', flush=True)\n"
+        "print(f'rank {rank} result {on_root(MPI.COMM_WORLD, lambda: 7)}', flush=True)\n")
+    proc = run_mpi([str(script)], timeout=60)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    for rank in (0, 1):
+        assert f"rank {rank} input mesh.path" in proc.stdout
+        assert f"rank {rank} runtime KeyError('lost') on rank 0" in proc.stdout
+    assert "rank 0 result 7" in proc.stdout and "rank 1 result None" in proc.stdout

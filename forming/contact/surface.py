@@ -36,6 +36,7 @@ from mpi4py import MPI
 from forming.cad import Tessellation, orient_outward, triangles
 from forming.contact.trisurface import CREASE_DEG, LIVE, FacetTracker, TriangleSurface
 from forming.errors import InputError
+from forming.parallel import on_root
 
 log = logging.getLogger(__name__)
 
@@ -119,16 +120,9 @@ def read_triangles(path: Path, tess: Tessellation) -> tuple[np.ndarray, np.ndarr
 def _load(tool: SurfaceTool, comm: MPI.Comm) -> TriangleSurface:
     """Read on rank 0, broadcast, check and build on every rank (errors on every rank)."""
     path, scale, tess = tool.path, tool.scale, tool.tessellation
-    data = None
-    if comm.rank == 0:
-        try:
-            data = read_triangles(path, Tessellation(tess.angle, tess.max_size / scale))
-        except InputError as exc:  # (not picklable: its field and message go)
-            data = (exc.field, str(exc).removeprefix(f"{exc.field}: "))
-    data = comm.bcast(data, root=0)
-    if isinstance(data[0], str):
-        raise InputError(*data)
-    vertices, faces = data
+    data = on_root(comm, lambda: read_triangles(
+        path, Tessellation(tess.angle, tess.max_size / scale)))
+    vertices, faces = comm.bcast(data, root=0)
     vertices = vertices * scale + np.asarray(tool.translate, dtype=float)
     if tool.flip:
         faces = faces[:, [0, 2, 1]]

@@ -21,6 +21,7 @@ from forming.demonstrator.curves import closed_curve, quarter, read_points
 from forming.demonstrator.geometry import Component
 from forming.errors import InputError
 from forming.outline import Outline
+from forming.parallel import on_root
 from forming.scene import Contact, Linear, Tool
 from forming.tooling import generated_dir
 
@@ -34,9 +35,12 @@ def shipped_files(component: Component | None = None) -> dict[str, Path]:
     files = {"lower": directory / "lower.stl", "upper": directory / "upper.stl",
              "trim": directory / "trim.csv"}
     comm = MPI.COMM_WORLD
-    if comm.rank == 0 and not all(f.is_file() for f in files.values()):
-        tool_files(directory, component)
-    comm.barrier()
+
+    def write() -> None:
+        if not all(f.is_file() for f in files.values()):
+            tool_files(directory, component)
+
+    on_root(comm, write, gmsh_field="component")  # the others wait for the files
     return files
 
 

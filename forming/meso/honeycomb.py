@@ -26,6 +26,8 @@ from mpi4py import MPI
 from forming import compat
 from forming.errors import InputError
 from forming.mesh import MeshData
+from forming.meso.facets import facet_groups, group_names
+from forming.parallel import on_root
 
 WALL_DENSITY = 7.4e-10  # the cardboard walls' density, Table 1 [t/mm^3]
 
@@ -336,13 +338,16 @@ def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> Me
     prismatic. The patch's imperfection moves the nodes after that.
 
     Groups: the volume ``walls``; the walls' faces ``bottom`` (z = 0) and ``top``
-    (z = height); ``sides`` (every other boundary face: the wall faces and the cut
-    edges). With an infill also the volume ``infill``, its faces ``infill_bottom`` and
-    ``infill_top``, and ``wall_infill``, the faces the walls share with the infill; with
-    flanges the volume ``flange``, its top faces ``flange_top`` and ``wall_flange``.
+    (z = height); ``sides`` (every other boundary face), the union of ``wall_faces`` and
+    the walls' cut faces on the patch's rectangle, ``cut_xmin``, ``cut_xmax`` (ribbon
+    walls cut square at their middles) and ``cut_ymin``, ``cut_ymax`` (inclined walls cut
+    at their middles; :func:`patch_box`), each with its part ``_inner`` at least a cell
+    pitch from the rectangle's corners. With an infill also the volume ``infill``, its
+    faces ``infill_bottom`` and ``infill_top``, and ``wall_infill``, the faces the walls
+    share with the infill; with flanges the volume ``flange``, its top faces
+    ``flange_top`` and ``wall_flange``.
     """
-    region = None
-    if comm.rank == 0:
+    def build() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         xy, quads, region = section_mesh(patch)
         z = np.linspace(0.0, patch.height, patch.layers + 1)
         if patch.flange > 0:  # a thin top layer: the flanges' thickness
@@ -356,9 +361,11 @@ def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> Me
             cells, region = cells[keep], region[keep]
             used, cells = np.unique(cells, return_inverse=True)
             x, cells = x[used], cells.reshape(-1, 8)
-        x = patch.perturbed(x)
-    else:
-        x, cells = np.zeros((0, 3)), np.zeros((0, 8), dtype=np.int64)
+        return patch.perturbed(x), cells, region
+
+    built = on_root(comm, build, gmsh_field="size")
+    x, cells, region = built if built is not None else (
+        np.zeros((0, 3)), np.zeros((0, 8), dtype=np.int64), None)
     region = comm.bcast(region, root=0)
     msh = compat.create_hex_mesh(comm, cells, x)
     tdim = msh.topology.dim
@@ -367,46 +374,19 @@ def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> Me
     cell_region = region[np.asarray(msh.topology.original_cell_index)[:n_cells]]
     cell_tags = dmesh.meshtags(msh, tdim, np.arange(n_cells, dtype=np.int32),
                                cell_region.astype(np.int32))
-    facets, values = _facet_groups(msh, cell_region, patch.height)
+    facets, values = facet_groups(msh, cell_region, patch.height,
+                                  patch_box(patch.cell, *patch.cells), patch.cell.pitch,
+                                  patch.element_size)
     facet_tags = dmesh.meshtags(msh, tdim - 1, facets, values)
-    names = {"walls": (3, 1), "bottom": (2, 1), "top": (2, 2), "sides": (2, 3)}
+    names = {"walls": (3, 1), "bottom": (2, 1), "top": (2, 2), "wall_faces": (2, 3)}
+    cuts, unions = group_names()
+    names |= cuts
     if patch.infill:
         names |= {"infill": (3, 2), "infill_bottom": (2, 4), "infill_top": (2, 5),
                   "wall_infill": (2, 6)}
     if patch.flange > 0:
         names |= {"flange": (3, 3), "flange_top": (2, 7), "wall_flange": (2, 8)}
-    return MeshData(msh, cell_tags, facet_tags, names)
-
-
-def _facet_groups(msh, cell_region: np.ndarray, height: float) -> tuple[np.ndarray, np.ndarray]:
-    """Facet indices (sorted) and their group tags (see :func:`honeycomb_mesh`)."""
-    tdim = msh.topology.dim
-    msh.topology.create_connectivity(tdim - 1, tdim)
-    f2c = msh.topology.connectivity(tdim - 1, tdim)
-    tol = 1e-6 * height
-    bottom = dmesh.locate_entities_boundary(msh, tdim - 1, lambda p: np.abs(p[2]) < tol)
-    top = dmesh.locate_entities_boundary(msh, tdim - 1, lambda p: np.abs(p[2] - height) < tol)
-    boundary = dmesh.exterior_facet_indices(msh.topology)
-    sides = np.setdiff1d(boundary, np.union1d(bottom, top))
-
-    def owner(facets: np.ndarray) -> np.ndarray:
-        return np.array([cell_region[f2c.links(f)[0]] for f in facets], dtype=np.int32)
-
-    # bottom: walls 1, infill 4; top: walls 2, infill 5, flanges 7
-    groups = [(bottom, np.array([1, 1, 4, 1])[owner(bottom)]),
-              (top, np.array([2, 2, 5, 7])[owner(top)]),
-              (sides, np.full(len(sides), 3))]
-    n_facets = msh.topology.index_map(tdim - 1).size_local + \
-        msh.topology.index_map(tdim - 1).num_ghosts
-    shared = [f for f in range(n_facets) if len(cells := f2c.links(f)) == 2
-              and cell_region[cells[0]] != cell_region[cells[1]]]
-    other = [max(cell_region[f2c.links(f)]) for f in shared]  # the walls' partner
-    groups.append((np.array(shared, dtype=np.int32),
-                   np.where(np.array(other, dtype=np.int32) == 3, 8, 6)))
-    facets = np.concatenate([g[0] for g in groups]).astype(np.int32)
-    values = np.concatenate([g[1] for g in groups]).astype(np.int32)
-    order = np.argsort(facets)
-    return facets[order], values[order]
+    return MeshData(msh, cell_tags, facet_tags, names, unions)
 
 
 @contextlib.contextmanager
