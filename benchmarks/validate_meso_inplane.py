@@ -70,8 +70,7 @@ def main() -> None:
         "walls; a wall's bending compliance goes as its free length cubed).",
         "- Against the paper: its in-plane tests measured 0.2 MPa in both directions, which "
         f"the macro core keeps; the meso lattice gives {ey:.3f} (y) and {ex:.3f} (x) MPa "
-        "from Table 1's "
-        "walls and the estimated cell (docs/materials.md).",
+        "from Table 1's walls and the estimated cell (docs/materials.md).",
         "- The macro core's transversely isotropic law cannot take a Poisson ratio of 1 "
         "(its in-plane stiffness would not be positive definite): `forming calibrate` "
         "reports it and gives the macro core only the moduli (`core_overrides` in "

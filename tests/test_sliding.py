@@ -172,9 +172,9 @@ def test_contact_patch_explicit_on_two_ranks(tmp_path):
     2299 increments), serial and on two ranks: quasi-static (kinetic energy 0.4% of the
     internal), energy balanced (2e-9 measured), every slave node's pressure within 1% of
     the applied one (0.41% measured, as implicit), and the two runs' histories equal
-    (1e-8). The explicit solver takes finite sliding through the same residual as the
-    implicit one, split per body from one vector in the implicit solver's layout; a
-    failure means the split puts forces on the wrong dofs or ranks."""
+    (1e-8 of the run's largest value). The explicit solver takes finite sliding through
+    the same residual as the implicit one, split per body from one vector in the implicit
+    solver's layout; a failure means the split puts forces on the wrong dofs or ranks."""
     sets = ["solver=explicit", "explicit.loading_time=0.01"]
     s = run_case("contact_patch", tmp_path / "serial", sets)
     assert s["status"] == "completed", s["reason"]
@@ -187,7 +187,10 @@ def test_contact_patch_explicit_on_two_ranks(tmp_path):
     h1 = np.genfromtxt(tmp_path / "serial" / "history.csv", delimiter=",", names=True)
     h2 = np.genfromtxt(tmp_path / "mpi" / "history.csv", delimiter=",", names=True)
     for col in ("sliding_upper_z_N", "energy_internal_Nmm"):
-        np.testing.assert_allclose(h2[col], h1[col], rtol=1e-8, atol=1e-9)
+        # at zero load the force is round-off (1.6e-9 N serial, 4.4e-10 N on 2 ranks on
+        # an AMD EPYC): it is compared against the run's force, not against zero
+        np.testing.assert_allclose(h2[col], h1[col], rtol=1e-8,
+                                   atol=1e-8 * np.abs(h1[col]).max())
 
 
 @pytest.mark.slow
