@@ -199,3 +199,22 @@ def test_an_error_of_the_meshing_rank_is_raised_on_every_rank(tmp_path):
         assert f"rank {rank} input mesh.path" in proc.stdout
         assert f"rank {rank} runtime KeyError('lost') on rank 0" in proc.stdout
     assert "rank 0 result 7" in proc.stdout and "rank 1 result None" in proc.stdout
+
+
+def test_an_inverted_element_is_reported_with_its_body_and_place():
+    """A step that inverts an element fails with the body's name and where the first
+    inverted point is (the cell's centre), so a user sees which part folded through
+    itself (a soft dummy flange, say) instead of a bare count. A failure means the
+    message lost the body or the place (forming/bodies/solid.py)."""
+    from forming.errors import KernelFailure
+    from forming.model import Model
+
+    scene = block_scene(honeycomb_core("isotropic"), cells=(2, 2, 2))
+    body = Model(scene).bodies["core"]
+    x = body.V.tabulate_dof_coordinates()
+    u = body.u.x.array.reshape(-1, 3)
+    corner = np.linalg.norm(x - [10.0, 10.0, 10.0], axis=1) < 1e-9
+    u[corner, 2] = -12.0  # the top corner node pushed through the bottom of its cell
+    with pytest.raises(KernelFailure, match=r"in body 'core', the first in the cell at "
+                                            r"\(7\.5, 7\.5, 7\.5\) mm"):
+        body.update_material()

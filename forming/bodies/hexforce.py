@@ -198,13 +198,14 @@ class HexInternalForce:
         right_cauchy_green(u, self.nodes, self.grads, self.cm, self.detf)
         bad = int(np.count_nonzero(self.detf <= 0.0))
         if bad:
-            raise KernelFailure(f"{bad} integration points: inverted elements (det F <= 0)")
+            raise KernelFailure(f"{bad} integration points: inverted elements (det F <= 0) "
+                                f"in body {body.name!r}")
         nbad, worst = point_stress(body.material, self.cm, self.ep, self.evp, self.stress,
                                    self.ep_trial, self.evp_trial, body.load_increment,
                                    body.travel)
         if nbad:
             what = "inverted elements" if worst == 1 else "return mapping failed"
-            raise KernelFailure(f"{nbad} integration points: {what}")
+            raise KernelFailure(f"{nbad} integration points: {what} in body {body.name!r}")
         if self.reduced and self._curve is not None:
             tangent_ratio(self.ep, self.evp, self.ep_trial, self.evp_trial, *self._curve,
                           self.modulus, self.plastic_floor, self.phi)

@@ -14,6 +14,7 @@ import basix.ufl
 import numpy as np
 import ufl
 from dolfinx import fem  # noqa: I001
+from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
@@ -159,7 +160,8 @@ class SolidBody(BodyBase):
         n_inverted = int(np.count_nonzero(inverted))
         if n_inverted:  # C alone cannot tell an inverted element
             self._evaluated_at = None
-            raise KernelFailure(f"{n_inverted} quadrature points: inverted elements (det F <= 0)")
+            raise KernelFailure(f"{n_inverted} quadrature points: inverted elements (det F <= 0)"
+                                f"{self._where(inverted)}")
         cm = cj[:, :9]
         ps = self.plastic
         res = evaluate(
@@ -171,7 +173,8 @@ class SolidBody(BodyBase):
         if res.n_failed:
             self._evaluated_at = None
             what = "inverted elements" if res.worst_status == 1 else "return mapping failed"
-            raise KernelFailure(f"{res.n_failed} quadrature points: {what}")
+            raise KernelFailure(f"{res.n_failed} quadrature points: {what} in body "
+                                f"{self.name!r}")
         self.S.x.array.reshape(-1, 6)[self._qdofs] = res.S
         if want_tangent:
             self.D.x.array.reshape(-1, 36)[self._qdofs] = res.D
@@ -248,6 +251,14 @@ class SolidBody(BodyBase):
             f.x.array[: self.n_local_cells] = self.cell_average(
                 self.plastic.ep[:, 0] if self.damaging else self.plastic.evp)
             f.x.scatter_forward()
+
+    def _where(self, points: np.ndarray) -> str:
+        """`` in body NAME, the first in the cell at (x, y, z)`` for a mask over the points."""
+        cell = self.point_cells[int(np.argmax(points)) // max(self.n_points // max(
+            len(self.point_cells), 1), 1)]
+        mid = dmesh.compute_midpoints(self.mesh, 3, np.array([cell], dtype=np.int32))[0]
+        return (f" in body {self.name!r}, the first in the cell at "
+                f"({mid[0]:.3g}, {mid[1]:.3g}, {mid[2]:.3g}) mm")
 
     def min_det_F(self) -> float:
         """Smallest Jacobian determinant over the quadrature points of all ranks.
