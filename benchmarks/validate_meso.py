@@ -177,10 +177,14 @@ def main() -> None:
               "the modulus is 8% low and a wall strains 8.8% locally at 1% nominal strain, "
               "so the flange-platen contact is not trusted yet. The paper's remedies work "
               "in its explicit code; ours, implicit, need more (explicit meso runs, "
-              "contact at the quadratic walls' midside nodes).",
-              "- Not yet: wall-to-wall contact, a larger patch for the RVE "
-              "size, strains past the first folds, an explicit meso run, `meso_crushing`, "
-              "`meso_hemisphere`, `forming calibrate` (issue 20 stays open)."]
+              "contact at the quadratic walls' midside nodes). These touching-platen rows "
+              "predate the platen touching every node of the quadratic faces (ea230d0) and "
+              "the dummies' bonds at all nine nodes (b1a2e7d): 'Meso variants past the "
+              "peak' has the three variants rerun, implicit and explicit.",
+              "- Since this section: wall-to-wall contact, explicit meso runs, "
+              "`meso_crushing`, `forming calibrate` with the in-plane moduli (sections "
+              "below). Not yet: a larger patch for the RVE size in compression, "
+              "`meso_hemisphere` (issue 20 stays open)."]
     update_section("meso", "\n".join(lines), VALIDATION_MD)
     cost = ["## Meso-scale cases", "",
             "Written by `python benchmarks/validate_meso.py` (docs/validation.md, meso "
