@@ -202,6 +202,7 @@ def _generate(parts: list[Block], comm: MPI.Comm, prefix: bool) -> MeshData:
         gmsh.initialize(interruptible=False)
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("_".join(b.name for b in parts))
+
     def build() -> None:
         tag = 1
         volumes = []
