@@ -42,7 +42,8 @@ RATE = 62.5  # nominal strain rate of every run [1/s] (0.25 in 0.004 s, as meso_
 EXPLICIT = ("solver=explicit", "stabilisation=0", "explicit.target_time_step=2e-7")
 
 
-def _sets(strain: float, *more: str) -> tuple[str, ...]:
+def explicit_sets(strain: float, *more: str) -> tuple[str, ...]:
+    """The ``--set`` items of an explicit meso run to ``strain`` at :data:`RATE`."""
     return (f"strain={strain:g}", *EXPLICIT, f"explicit.loading_time={strain / RATE:g}",
             *more)
 
@@ -62,6 +63,15 @@ def existing(vary: dict[str, tuple], out: Path) -> list[tuple[object, dict]]:
             continue
         pairs.append((Row.from_summary(values, folder, summary), summary))
     return pairs
+
+
+def runs_or_report(report: bool, case: str, vary: dict[str, tuple], out: Path,
+                   sets: tuple[str, ...] = (), jobs: int = 1) -> list[tuple[object, dict]]:
+    """The study's runs in ``out``: run (reusing what is there) or, with ``report``, only
+    read (:func:`existing`: a plain study would run an interrupted run again)."""
+    if report:
+        return existing(vary, out)
+    return study_runs(case, vary, out, sets=sets, jobs=jobs)
 
 
 def status_text(row, summary: dict) -> str:
@@ -112,14 +122,12 @@ def main() -> None:
     out = REPO / "results" / "validate_meso_explicit"
 
     def runs(case: str, vary: dict[str, tuple], sub: str, sets: tuple[str, ...] = ()):
-        if args.report:
-            return existing(vary, out / sub)
-        return study_runs(case, vary, out / sub, sets=sets)
+        return runs_or_report(args.report, case, vary, out / sub, sets)
 
     (bonded_row, bonded), = runs("meso_compression", {"cells": ("1,1",)}, "bonded",
-                                 _sets(args.strain))
+                                 explicit_sets(args.strain))
     touching = runs("meso_compression", {"variant": ("original", "flange", "infill")},
-                    "contact", _sets(args.variant_strain, "cells=1,1", "platen=contact",
+                    "contact", explicit_sets(args.variant_strain, "cells=1,1", "platen=contact",
                                      "platen_stick=augmented"))
     lines = ["## Meso-scale honeycomb: explicit runs, walls that touch (issue 20)", "",
              "Fracturing walls (docs/theory.md §15), the 1 x 1 patch, serial, explicit "

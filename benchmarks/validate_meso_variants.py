@@ -30,15 +30,15 @@ import argparse
 import sys
 
 import numpy as np
-from _report import REPO, machine, study_runs, update_section
+from _report import REPO, machine, update_section
 from validate_meso import footprint
 from validate_meso_explicit import (
     PAPER_TABLE2,
-    _sets,
     commit,
     curve,
-    existing,
+    explicit_sets,
     regions,
+    runs_or_report,
     status_text,
 )
 
@@ -88,12 +88,10 @@ def main() -> None:
     out = REPO / "results" / "validate_meso_variants"
 
     def runs(sub: str, sets: tuple[str, ...]) -> list:
-        if args.report:
-            return existing({"variant": VARIANTS}, out / sub)
-        return study_runs("meso_compression", {"variant": VARIANTS}, out / sub, sets=sets,
-                          jobs=args.jobs)
+        return runs_or_report(args.report, "meso_compression", {"variant": VARIANTS},
+                              out / sub, sets, args.jobs)
 
-    pairs = runs("explicit", _sets(args.strain, "cells=1,1", "platen=contact",
+    pairs = runs("explicit", explicit_sets(args.strain, "cells=1,1", "platen=contact",
                                    "platen_stick=augmented"))
     implicit = runs("implicit", (f"strain={args.implicit_strain:g}", "cells=1,1",
                                  "platen=contact"))

@@ -170,11 +170,7 @@ def build(p: Params) -> Job:
                              "buckling=false, stabilisation > 0)")
         return _tension(p, patch)
     mesh = honeycomb_mesh(patch)
-    cardboard = IsotropicElasticity(p.wall_modulus, p.wall_poisson)
-    material = (FracturingSolid(cardboard, p.fracture_strain, p.fracture_energy,
-                                erosion=p.erosion, viscosity=p.damage_viscosity,
-                                density=WALL_DENSITY)
-                if p.fracture else ElasticSolid(cardboard, density=WALL_DENSITY))
+    material = _walls(p)
     stroke = p.strain * p.height
     split = p.variant != "original"  # the walls are one region of several
     walls = Body("walls", material, region="walls" if split else None, degree=2)
@@ -308,16 +304,21 @@ def build(p: Params) -> Job:
     )
 
 
+def _walls(p: Params) -> FracturingSolid | ElasticSolid:
+    """The cell walls' material: Table 1's cardboard, fracturing or elastic."""
+    cardboard = IsotropicElasticity(p.wall_modulus, p.wall_poisson)
+    if p.fracture:
+        return FracturingSolid(cardboard, p.fracture_strain, p.fracture_energy,
+                               erosion=p.erosion, viscosity=p.damage_viscosity,
+                               density=WALL_DENSITY)
+    return ElasticSolid(cardboard, density=WALL_DENSITY)
+
+
 def _tension(p: Params, patch: HoneycombPatch) -> Job:
     """The patch pulled in its plane by its cut faces (``load=tension_x|tension_y``)."""
-    cardboard = IsotropicElasticity(p.wall_modulus, p.wall_poisson)
-    material = (FracturingSolid(cardboard, p.fracture_strain, p.fracture_energy,
-                                erosion=p.erosion, viscosity=p.damage_viscosity,
-                                density=WALL_DENSITY)
-                if p.fracture else ElasticSolid(cardboard, density=WALL_DENSITY))
     held, stroke, column, section = inplane_loading(patch, p.load, p.strain)
     scene = Scene(name="meso_compression", mesh=honeycomb_mesh(patch),
-                  bodies=(Body("walls", material, degree=2),), displacements=held,
+                  bodies=(Body("walls", _walls(p), degree=2),), displacements=held,
                   stabilisation=Stabilisation(p.stabilisation))
     axis = AXES[p.load]
     name = "xy"[axis]

@@ -2,8 +2,8 @@
 
 ``forming calibrate meso_compression --out DIR [--set ...] [--no-moduli]`` runs the meso
 case (its cell walls modelled) into ``DIR/meso``, turns its nominal stress-strain curve
-into the curve the macro core reads (:meth:`CompressionCurve.from_csv`), and checks it: the macro
-``core_compression`` run with that curve and the meso run's initial modulus, in
+into the curve the macro core reads (:meth:`CompressionCurve.from_csv`), and checks it:
+the macro ``core_compression`` run with that curve and the meso run's initial modulus, in
 ``DIR/check``, must reproduce it (its ``curve_rmse_rel``). Written into ``DIR``:
 
 * ``c365_meso.csv``: the curve, with its provenance in ``#`` lines;
@@ -128,27 +128,26 @@ SHEAR_STRAIN = 0.005  # nominal shear strain of the shear runs (elastic walls' r
 TENSION_STRAIN = 0.002  # nominal strain of the in-plane tension runs (elastic walls)
 
 
-def _assigned(assignments: list[str], key: str) -> str | None:
-    """The last value ``assignments`` give ``key`` (None: not given)."""
-    values = [a.split("=", 1)[1] for a in assignments if a.split("=", 1)[0].strip() == key]
-    return values[-1].strip() if values else None
-
-
-def tension_assignments(assignments: list[str], load: str) -> list[str]:
+def tension_assignments(case: str, assignments: list[str], load: str) -> list[str]:
     """The settings of an in-plane tension run of the patch ``assignments`` describe.
 
     The same walls and cells, at least 2 x 3 cells (the lattice measures need inner rows
     of ribbon walls, :func:`forming.meso.inplane.check_patch`), the walls alone
-    (``variant=original``), one load step to :data:`TENSION_STRAIN`, and the default
-    stabilisation if the patch's is off (it holds the free rigid motion).
+    (``variant=original``), one load step to :data:`TENSION_STRAIN`, and the case's
+    default stabilisation if the patch's is off (it holds the free rigid motion).
+
+    Raises:
+        InputError: ``assignments`` are not the case's (read as the case reads them).
     """
-    cells = _assigned(assignments, "cells")
-    nx, ny = ((int(c) for c in cells.split(",")) if cells else (3, 3))
+    from forming.case import load_case, parse_params, split_solver_settings
+
+    params_cls = load_case(case).Params
+    p = parse_params(params_cls, split_solver_settings(assignments)[2])
+    nx, ny = p.cells
     extra = [f"load={load}", f"strain={TENSION_STRAIN!r}", "max_step=1.0", "buckling=false",
              "variant=original", f"cells={max(nx, 2)},{max(ny, 3)}"]
-    stab = _assigned(assignments, "stabilisation")
-    if stab is not None and float(stab) <= 0.0:
-        extra.append("stabilisation=0.0002")
+    if p.stabilisation <= 0.0:
+        extra.append(f"stabilisation={params_cls().stabilisation!r}")
     return [*assignments, *extra]
 
 
@@ -171,13 +170,12 @@ def moduli(case: str, out: Path, assignments: list[str]) -> dict:
         found[f"shear_modulus_{load[-1]}z_MPa"] = run.get("metrics", {}).get(
             "shear_modulus_MPa")
     for load in ("tension_x", "tension_y"):
-        sets = tension_assignments(assignments, load)
-        run = run_case(case, out / load, sets)
+        run = run_case(case, out / load, tension_assignments(case, assignments, load))
         m = run.get("metrics", {})
         found[f"inplane_modulus_{load[-1]}_MPa"] = m.get("inplane_modulus_MPa")
         found[f"inplane_poisson_{load[-1]}"] = m.get("inplane_poisson")
         found[f"gibson_ashby_inplane_{load[-1]}_MPa"] = m.get("gibson_ashby_inplane_MPa")
-        found["tension_cells"] = _assigned(sets, "cells")
+        found["tension_cells"] = ",".join(str(c) for c in run["parameters"]["cells"])
     pairs = [(found["inplane_modulus_x_MPa"], found["inplane_modulus_y_MPa"]),
              (found["inplane_poisson_x"], found["inplane_poisson_y"])]
     means = [0.5 * (a + b) if a is not None and b is not None else None for a, b in pairs]

@@ -172,6 +172,7 @@ def sliding_sandwich_mesh(outline: Outline, core_thickness: float = 20.0,
     if not started:
         gmsh.initialize(interruptible=False)
     gmsh.option.setNumber("General.Terminal", 0)
+
     def build() -> None:
         core2d = quadrilaterals(gmsh, outline, h)
         skin2d = core2d if refinement == 1 else quadrilaterals(gmsh, outline, h / refinement)

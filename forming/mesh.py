@@ -35,8 +35,6 @@ class MeshData:
 
     def facets(self, name: str) -> np.ndarray:
         """Local facet indices of the surface group ``name`` (disjoint group or union)."""
-        if name in self.names and self.names[name][0] == 2:
-            return self.facet_tags.find(self.names[name][1])
         found = [self.facet_tags.find(t) for t in self.facet_tag_ids(name)]
         return np.unique(np.concatenate(found)).astype(np.int32)
 
@@ -243,6 +241,7 @@ def from_file(path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD) -> MeshData:
     if not initialised:
         gmsh.initialize(interruptible=False)
     gmsh.option.setNumber("General.Terminal", 0)
+
     def read() -> None:
         try:
             gmsh.open(str(p))

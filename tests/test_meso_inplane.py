@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import math
 
-import numpy as np
 import pytest
 import ufl
 from dolfinx import fem  # noqa: I001
@@ -124,10 +123,14 @@ def test_inplane_tension_refuses_what_it_cannot_measure(sets, field, tmp_path):
 
 def test_calibration_tension_runs_widen_a_small_patch():
     """``forming calibrate`` pulls the compression patch's walls in the plane on at least
-    2 x 3 cells, the walls alone, with the stabilisation on; a failure means calibrating a
-    1 x 1 patch would stop at its in-plane runs."""
-    sets = tension_assignments(["cells=1,1", "stabilisation=0", "variant=flange"], "tension_y")
-    assert sets[-1] == "stabilisation=0.0002"
+    2 x 3 cells, the walls alone, with the stabilisation on, reading the patch's settings
+    as the case does; a failure means calibrating a 1 x 1 patch would stop at its
+    in-plane runs."""
+    sets = tension_assignments("meso_compression",
+                               ["cells=1,1", "stabilisation=0", "variant=flange"], "tension_y")
+    assert sets[-1] == "stabilisation=0.0002"  # the case's default
     assert "cells=2,3" in sets and "variant=original" in sets
-    assert tension_assignments(["cells=4,5"], "tension_x")[-1] == "cells=4,5"
-    assert np.isfinite(float(tension_assignments([], "tension_x")[1].split("=")[1]))
+    assert tension_assignments("meso_compression", ["cells=4,5"], "tension_x")[-1] == "cells=4,5"
+    assert "cells=3,3" in tension_assignments("meso_compression", [], "tension_x")
+    with pytest.raises(InputError, match="cells"):
+        tension_assignments("meso_compression", ["cells=a,b"], "tension_x")

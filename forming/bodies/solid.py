@@ -253,9 +253,12 @@ class SolidBody(BodyBase):
             f.x.scatter_forward()
 
     def _where(self, points: np.ndarray) -> str:
-        """`` in body NAME, the first in the cell at (x, y, z)`` for a mask over the points."""
-        cell = self.point_cells[int(np.argmax(points)) // max(self.n_points // max(
-            len(self.point_cells), 1), 1)]
+        """`` in body NAME, the first in the cell at (x, y, z)`` for a mask over the points.
+
+        The points are cell by cell, the same number in each (:attr:`point_cells`).
+        """
+        per_cell = self.n_points // len(self.point_cells)
+        cell = self.point_cells[int(np.argmax(points)) // per_cell]
         mid = dmesh.compute_midpoints(self.mesh, 3, np.array([cell], dtype=np.int32))[0]
         return (f" in body {self.name!r}, the first in the cell at "
                 f"({mid[0]:.3g}, {mid[1]:.3g}, {mid[2]:.3g}) mm")

@@ -73,8 +73,7 @@ def facet_groups(msh, cell_region: np.ndarray, height: float,
 
     groups = [(bottom, np.array([1, 1, 4, 1])[owner(bottom)]),
               (top, np.array([2, 2, 5, 7])[owner(top)]),
-              (sides, cut_tags(msh, sides, owner(sides) == 1, box, pitch,
-                                      element_size))]
+              (sides, cut_tags(msh, sides, owner(sides) == 1, box, pitch, element_size))]
     n_facets = msh.topology.index_map(tdim - 1).size_local + \
         msh.topology.index_map(tdim - 1).num_ghosts
     shared = [f for f in range(n_facets) if len(cells := f2c.links(f)) == 2
