@@ -103,6 +103,9 @@ class DeformableBody(Protocol):
     def stability_jacobian(self, du, v) -> ufl.Form:
         """A Jacobian at least as stiff as any the body reaches soon (explicit time step)."""
 
+    def viscous_residual(self, v: fem.Function, beta: fem.Constant, w) -> ufl.Form | None:
+        """Stiffness-proportional damping forces at velocities ``v``, or None (explicit runs)."""
+
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
                                 plastic_floor: float = 0.3):
         """Element loops for the explicit solver, or None to use the form.
@@ -173,6 +176,10 @@ class BodyBase:
     def stability_jacobian(self, du, v) -> ufl.Form:
         """The Jacobian that bounds the explicit time step: :meth:`jacobian` by default."""
         return self.jacobian(du, v)
+
+    def viscous_residual(self, v: fem.Function, beta: fem.Constant, w) -> ufl.Form | None:
+        """None: no damping of the body's own (explicit runs damp it with the mass)."""
+        del v, beta, w
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
                                 plastic_floor: float = 0.3):

@@ -100,6 +100,30 @@ class FabricBody(BodyBase):
                   + mat.taut_fibre_energy(F) * self.dx_fibre)
         return ufl.derivative(ufl.derivative(energy, self.u, v), self.u, du)
 
+    def viscous_residual(self, v: fem.Function, beta: fem.Constant, w) -> ufl.Form:
+        """Stiffness-proportional damping of the fibres, tested with ``w`` (explicit runs).
+
+        Per family a viscous stress ``beta E_t(lam) d(lam)/dt`` along the fibre, at the
+        fibre point, with ``E_t`` the fibre's tangent modulus: every mode of the fibres is
+        damped at ``beta omega / 2`` of critical, the highest (the fibres' ringing) most.
+
+        Args:
+            v: The nodal velocities (a function of the displacement space).
+            beta: The damping time [s].
+            w: Test function.
+        """
+        F = self.deformation_gradient()
+        form = 0
+        for a0 in self.material.fibre_directions:
+            a = ufl.as_vector(a0)
+            f = F * a
+            lam = ufl.sqrt(ufl.dot(f, f))
+            rate = ufl.dot(f, ufl.grad(v) * a) / lam
+            virtual = ufl.dot(f, ufl.grad(w) * a) / lam
+            form = form + (beta * self.material.fibre_tangent_modulus(lam) * rate
+                           * virtual * self.dx_fibre)
+        return form
+
     def contact_stiffness(self) -> float:
         """Through-thickness modulus of the layer [MPa] (sets default contact penalties)."""
         m = self.material

@@ -368,6 +368,18 @@ class NonCrimpFabric:
             psi = psi + 0.5 * e_mod * (r * e**2 + (1.0 - r) * g)
         return psi
 
+    def fibre_tangent_modulus(self, lam: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+        """``d^2 psi / d lam^2`` of one family at stretch ``lam`` [MPa] (:meth:`fibre_energy`).
+
+        ``E r`` in compression, ``E`` beyond the toe, ``E [r + (1 - r) s(e / toe)]`` with the
+        cubic smoothstep ``s`` inside it.
+        """
+        e_mod, r, d = self.fibre_modulus, self.compression_ratio, self.toe_strain
+        x = (lam - 1.0) / d
+        s = ufl.conditional(ufl.le(x, 0.0), 0.0,
+                            ufl.conditional(ufl.lt(x, 1.0), x * x * (3.0 - 2.0 * x), 1.0))
+        return e_mod * (r + (1.0 - r) * s)
+
     def taut_fibre_energy(self, F: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
         """``E (lam - 1)^2 / 2`` per family: the fibres as stiff as they get (in tension).
 

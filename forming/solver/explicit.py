@@ -37,6 +37,7 @@ from forming import compat, signals  # noqa: F401
 from forming.contact.selfcontact import SelfContactTerm
 from forming.errors import InputError, KernelFailure
 from forming.model import Model
+from forming.solver import lumped
 from forming.solver.base import StepResult
 from forming.solver.ledger import EnergyLedger
 from forming.solver.lumped import BodyState, ExternalTerm, OutsideForms, ToolTerm, body_density
@@ -102,14 +103,18 @@ class ExplicitSolver:
         self._selves = [SelfContactTerm(by_name[sc.spec.body], sc, lambda: self.dt)
                         for sc in model.self_contacts]
         self._sides += self._selves
-        self._terms = [*self._sides, *self._loads]  # assembled from forms (or split)
+        # damping of the bodies' stiffest modes (fabric fibres), at the half-step velocities
+        self._viscous = (lumped.viscous_terms(self.states, tests, emaps)
+                         if opts.fibre_damping > 0 else [])
+        self._terms = [*self._sides, *self._loads, *self._viscous]  # assembled from forms
         # what the solver commits itself at every increment (not through the model)
         self._own = {id(loop.body) for loop in self._loop_list}
         self._own |= {id(t.contact) for t in self._tools}
         # recorded reactions: the residual at a face's prescribed dofs, f_all . w
         self._reactions = [(key, by_name[name], w.x.array[: by_name[name].n_owned])
                            for key, (name, w) in model.dirichlet.reaction_weights.items()]
-        self._bound = StableStep(model, self.states, opts)
+        self._bound = StableStep(model, self.states, opts,
+                                 opts.fibre_damping if self._viscous else 0.0)
         self.mass_added_fraction = self._bound.scale_masses()
         self.tau = 0.0
         self.time_steps = 0
@@ -124,7 +129,7 @@ class ExplicitSolver:
                       np.zeros(st.n_owned), np.zeros(st.v.size)) for st in self.states]
         self.dt = math.inf  # no time step yet: a self-contact's penalty is 0 at rest
         self._assemble_forces()  # forces at rest (e.g. a preload) give a_0
-        self.dt = self._dt_ref = self._bound.time_step()
+        self.dt = self._dt_ref = self._time_step()
         self._omega2_ref = self._omega2_now = self._omega2()
         for st in self.states:
             self._accelerate(st)
@@ -134,6 +139,13 @@ class ExplicitSolver:
                  opts.integration)
 
     # -- time step ------------------------------------------------------------------------
+    def _time_step(self) -> float:
+        """The stable time step now (collective); the damping time follows it."""
+        dt = self._bound.time_step()
+        for term in self._viscous:  # the highest mode damped at fibre_damping of critical
+            term.beta.value = self.options.fibre_damping * self._bound.critical
+        return dt
+
     def _local_omega2(self) -> float:
         """The largest element frequency bound of this rank's element loops [1/s^2]."""
         return max((loop.omega2 for loop in self._loop_list), default=0.0)
@@ -217,7 +229,7 @@ class ExplicitSolver:
 
     def _account(self, dt: float, tool_old: list[np.ndarray]) -> None:
         """This rank's works over the increment (trapezoidal rule), tool impulses."""
-        w_int = w_ext = w_damp = on_bodies = tools = 0.0
+        w_int = w_ext = w_damp = w_visc = on_bodies = tools = 0.0
         du = {}
         for st, (u0, f0, r0, v0) in zip(self.states, self._old, strict=True):
             n = st.n_owned
@@ -234,6 +246,8 @@ class ExplicitSolver:
                 w_damp += self.options.damping * float((st.m[:n] * v0[:n])[free] @ d[free])
         for term in self._sides:
             on_bodies -= 0.5 * float((term.r_old + term.r_new) @ du[term.state.name])
+        for term in self._viscous:  # dissipated, and in R: -R . d is short of it
+            w_visc += 0.5 * float((term.r_old + term.r_new) @ du[term.state.name])
         for tool, off0 in zip(self._tools, tool_old, strict=True):
             on_bodies += tool.work_on_body(du[tool.state.name])
             force = tool.nodal.force_on_tool()  # this rank's share
@@ -243,8 +257,10 @@ class ExplicitSolver:
             self._reaction_impulse[key] += dt * float(st.f_all.x.array[: st.n_owned] @ w)
         # what the tools put in, less what reached the nodes, went into friction (and
         # the penalty springs of contacts and interfaces)
-        self.ledger.add(internal=w_int, external=w_ext + w_int + w_damp - on_bodies + tools,
-                        friction=tools - on_bodies, damping=w_damp)
+        # -R . d over the free dofs is the kinetic energy gained plus the mass damping's
+        # work (which is not in R): the damping goes to its ledger only
+        self.ledger.add(internal=w_int, external=w_ext + w_int + w_visc - on_bodies + tools,
+                        friction=tools - on_bodies, damping=w_damp + w_visc)
 
     def _kinetic(self) -> float:
         """Kinetic energy of this rank's nodes: v(n) = v(n-1/2) + dt/2 a(n)."""
@@ -298,7 +314,7 @@ class ExplicitSolver:
             if self.time_steps:  # the constructor evaluated the bound at the start
                 # the Gershgorin bound reads the body's plastic state, which the last
                 # interval's end (or a restore) handed over
-                self.dt = self._dt_ref = self._bound.time_step()
+                self.dt = self._dt_ref = self._time_step()
                 self._omega2_ref = self._omega2_now
             for outside in self._outside:
                 outside.start_interval()

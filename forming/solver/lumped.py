@@ -85,6 +85,40 @@ class ExternalTerm:
         return self.vec.x.array[: self.state.n_owned]
 
 
+class ViscousTerm(ExternalTerm):
+    """A body's damping forces at the half-step velocities, assembled alone.
+
+    Args:
+        state: The body's explicit state.
+        form: The damping forces' form, in the velocity ``v`` and the damping time.
+        v: The velocity function the form reads (filled from ``state.v`` at each update).
+        beta: The damping time [s] (set by the solver from the stable time step).
+    """
+
+    def __init__(self, state: BodyState, form: fem.Form, v: fem.Function,
+                 beta: fem.Constant):
+        super().__init__(state, form)
+        self.v = v
+        self.beta = beta
+
+    def update(self) -> None:
+        """The velocities into the form, then assemble."""
+        self.v.x.array[:] = self.state.v
+        super().update()
+
+
+def viscous_terms(states: list[BodyState], tests: dict, emaps) -> list[ViscousTerm]:
+    """The damping forces of every body that has them (:meth:`viscous_residual`)."""
+    out = []
+    for st in states:
+        v = fem.Function(st.body.V)
+        beta = fem.Constant(st.body.mesh, 0.0)
+        form = st.body.viscous_residual(v, beta, tests[st.name])
+        if form is not None:
+            out.append(ViscousTerm(st, fem.form(form, entity_maps=emaps), v, beta))
+    return out
+
+
 class ToolTerm:
     """A tool contact on one body, evaluated node by node at the rank's owned nodes.
 

@@ -109,6 +109,10 @@ class ExplicitOptions:
             mass added until it reaches this value [s] (reported as
             ``mass_added_fraction``); None: no mass scaling.
         damping: Mass-proportional damping coefficient alpha [1/s] (``a += -alpha v``).
+        fibre_damping: Fraction of critical damping of the fabric fibres' highest mode
+            (stiffness-proportional viscosity along the fibres; the linear bulk viscosity
+            of Abaqus/Explicit damps solids at 0.06 in the same way); lower modes are
+            damped in proportion to their frequency. 0 compiles no damping term.
         output_interval: Load-parameter interval between history rows (the stable time
             step is re-evaluated at each); None: the job's largest load step, at most
             0.02.
@@ -133,6 +137,7 @@ class ExplicitOptions:
     safety: float = 0.9
     target_time_step: float | None = None
     damping: float = 0.0
+    fibre_damping: float = 0.06
     output_interval: float | None = None
     quasi_static_limit: float = 0.05
     integration: Literal["full", "reduced"] = "full"
@@ -164,6 +169,9 @@ class ExplicitOptions:
             raise InputError("explicit.target_time_step", f"must be > 0 s, got {dt!r}")
         if not (math.isfinite(self.damping) and self.damping >= 0):
             raise InputError("explicit.damping", f"must be >= 0, got {self.damping!r}")
+        if not (math.isfinite(self.fibre_damping) and 0 <= self.fibre_damping < 1):
+            raise InputError("explicit.fibre_damping",
+                             f"must lie in [0, 1), got {self.fibre_damping!r}")
         iv = self.output_interval
         if iv is not None and not 0 < iv <= 1:
             raise InputError("explicit.output_interval", f"must lie in (0, 1], got {iv!r}")
