@@ -16,8 +16,9 @@ the core's answer. Quarter model: symmetry planes at mid-span (x = 0) and mid-wi
 Accuracy of the defaults (docs/validation.md, "Convergence of the shipped cases"): **not
 mesh-converged.** The 5 mm element's stiffness is a third of the 10 mm one's and a 2.5
 mm run stops in its first steps; read its stiffness as unsettled.
-On 2026-11-25 the default run was found to stop in its first step (Newton stalls near
-2e-6 N; docs/validation.md, "Three-point bending"); not yet understood.
+The default's first step is marginal: on 2026-11-25 the run stopped there (Newton stalls
+near 2e-6 N); on 2026-11-26, on another machine, it completed after cutting that step back
+10 times (docs/validation.md, "Three-point bending"); not yet understood.
 
 Run: ``python cases/sandwich_bending.py --set interface=bonded`` (or ``frictional``,
 ``frictionless``).

@@ -102,3 +102,47 @@ def test_mass_damping_is_booked_once(tmp_path):
     assert h["energy_damping_Nmm"][-1] > 0.5 * h["work_external_Nmm"][-1]
     assert s["metrics"]["energy_balance_error_rel"] < 1e-3
     assert s["metrics"]["shear_curve_rmse_rel"] < 0.01
+
+
+def test_contact_damping_adds_a_viscous_pressure_only_while_touching():
+    """A rigid plane z <= 0 and four nodes, node by node (the explicit tool contact):
+    the pressure is ``max(-eps g - c dg/dt, 0)``: a penetrating node approaching at 2
+    mm/s carries the penalty's pressure plus ``2 c``; one separating fast enough carries
+    none (the damper never pulls); a node above the plane carries nothing however fast
+    it approaches (no pressure before contact); without damping the penalty's alone.
+    A failure means the damping acts where it must not (tension, or at a distance).
+    """
+    from forming.contact.nodal import NodalContact
+    from forming.contact.shapes import Plane
+
+    eps, c = 10.0, 0.5  # [N/mm^3], [MPa s/mm]
+    coords = np.array([[0.0, 0, -0.01], [1.0, 0, -0.01], [2.0, 0, -0.01], [3.0, 0, 0.01]])
+    contact = NodalContact(Plane(), np.arange(4), coords, np.ones(4), eps, 0.0, None)
+    u = np.zeros(12)
+    v = np.array([[0, 0, -2.0], [0, 0, 0.1], [0, 0, 1.0], [0, 0, -50.0]])  # dg/dt = v_z
+    damped = -contact.residual(u, np.zeros(3), (np.full(4, c), v))[:, 2].copy()
+    bare = -contact.residual(u, np.zeros(3))[:, 2].copy()
+    assert bare == pytest.approx([0.1, 0.1, 0.1, 0.0])
+    assert damped == pytest.approx([0.1 + 2 * c, 0.1 - 0.1 * c, 0.0, 0.0])
+
+
+def test_explicit_large_slip_sled_keeps_more_friction_with_contact_damping(tmp_path):
+    """The finite-sliding sled (fabric dragged 2 mm over the core under 2 kPa in 0.02 s,
+    coarse skin): the implicit run holds drag / load at mu = 0.52 from its second step.
+    Explicitly, undamped, the light skin nodes chatter on their penalty springs, each
+    opening wipes their friction history, and the drag reaches 0.015 of the load; with
+    the default contact damping (20% of critical) 0.18 (measured). Asserted: damped
+    above 0.15 and at least 5 times the undamped. The rest of the gap to 0.52 is open
+    (docs/validation.md). A failure means the damping no longer reaches the
+    finite-sliding pairs, or the friction history is lost again.
+    """
+    sets = ["solver=explicit", "drag=2", "skin_cells=5", "explicit.loading_time=0.02"]
+    ratios = []
+    for zeta in ("0.2", "0"):
+        out = tmp_path / zeta
+        s = run_case("sliding_sled", out, [*sets, f"explicit.contact_damping={zeta}"])
+        assert s["status"] == "completed", s["reason"]
+        h = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+        late = h["t"] > 0.5
+        ratios.append(np.mean(np.abs(h["reaction_skin_skin_top_x_N"][late])) / (0.002 * 2400))
+    assert ratios[0] > 0.15 and ratios[0] > 5 * ratios[1], ratios

@@ -54,17 +54,25 @@ class NodalContact:
         self.u_prev = np.zeros((n, 3))  # slip reference: displacement at the last commit
         self.offset_prev = np.zeros(3)
 
-    def residual(self, u: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    def residual(self, u: np.ndarray, offset: np.ndarray,
+                 damping: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Residual entries of the contact at its nodes, (n, 3); kept as :attr:`r`.
 
         Args:
             u: The body's displacement array (3 per node).
             offset: The tool's current displacement [mm].
+            damping: ``(c, v)``: a viscous pressure ``-c v . n`` joins the penalty's, ``c``
+                [MPa s/mm] per node and ``v`` (n, 3) the nodes' velocities relative to the
+                tool (the pressure stays compressive; friction follows it).
         """
         self.r_old[:] = self.r
         un = u.reshape(-1, 3)[self.nodes]
         gap, normal = self._tracker.gap_normal(self.coords + un - offset)
-        pressure = np.maximum(-self.penalty * gap, 0.0)
+        trial = -self.penalty * gap
+        if damping is not None:
+            c, v = damping
+            trial -= c * np.sum(v * normal, axis=1) * (gap < 0)
+        pressure = np.maximum(trial, 0.0)
         traction = pressure[:, None] * normal
         if self.friction > 0.0:
             slip = un - self.u_prev - (offset - self.offset_prev)

@@ -185,9 +185,17 @@ class Surface:
 
     def positions(self) -> np.ndarray:
         """Current coordinates of every master node (one gather)."""
-        mine = np.ascontiguousarray(self._u.x.array.reshape(-1, 3)[self._owned]).reshape(-1)
+        return self.X0 + self.gather(self._u.x.array)
+
+    def gather(self, values: np.ndarray) -> np.ndarray:
+        """Every master node's values (n, 3) from a body array of 3 per node (one gather).
+
+        Args:
+            values: An array over the master body's dofs (displacements, velocities).
+        """
+        mine = np.ascontiguousarray(values.reshape(-1, 3)[self._owned]).reshape(-1)
         out = np.empty(int(self._counts.sum()))
         self.comm.Allgatherv(mine, [out, self._counts, self._displs, MPI.DOUBLE])
-        x = self.X0.copy()
-        x[self._perm] += out.reshape(-1, 3)
+        x = np.zeros_like(self.X0)
+        x[self._perm] = out.reshape(-1, 3)
         return x

@@ -38,6 +38,7 @@ ones. See docs/theory.md, section 11.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 import ufl
@@ -53,6 +54,25 @@ from forming.contact.tributary import AreaTransfer, bilinear_points
 from forming.history import ForceSampler
 from forming.layout import Layout
 from forming.vectors import assembled
+
+
+@dataclass(frozen=True)
+class NormalDamping:
+    """Viscous damping of a contact's normal approach (explicit runs).
+
+    The trial pressure of each slave node gets ``-c dg/dt``, so a node that rings against
+    its penalty spring loses ``c`` [MPa s/mm] times its approach speed, never pulls, and
+    its friction limit follows the damped pressure.
+
+    Attributes:
+        coefficient: ``c`` per owned slave node [MPa s/mm].
+        slave_velocity: The slave body's velocity array (3 per node), read at each use.
+        master_velocity: The master body's velocity array (3 per node), read at each use.
+    """
+
+    coefficient: np.ndarray
+    slave_velocity: np.ndarray
+    master_velocity: np.ndarray
 
 
 class SlidingTerm:
@@ -203,16 +223,19 @@ class SlidingTerm:
             else:
                 self.spreading.follow(xs, xm)
 
-    def add_residual(self, b: PETSc.Vec) -> None:
+    def add_residual(self, b: PETSc.Vec, damping: NormalDamping | None = None) -> None:
         """Add the contact's residual to the solver's vector (global indices).
 
         Every pair in one compiled call (:func:`~forming.contact.slidebatch.residual_all`).
+        With ``damping`` (explicit runs) each pair's trial pressure also carries the
+        viscous pressure ``-c dg/dt`` of its normal approach (:class:`NormalDamping`).
         """
         t0 = time.perf_counter()
         xs = self._slave_positions()
         xm = self.master.positions()
         self._pair(xs, xm)
         on = np.flatnonzero(self.inside)
+        lam_n = self.lam_n if damping is None else self._damped_trial(on, damping)
         for a in (self.p_new, self.shear, self.force, self.spring):
             a[:] = 0.0
         self.gap[:] = np.inf
@@ -227,7 +250,7 @@ class SlidingTerm:
         values = np.empty(size)
         n = residual_all(on, xs, xm, self.master.facets, self.master.index, self.s_index,
                          self.facet, self.xi, self.hist, self.hist_xi, self.touched, self.rel,
-                         self.lam_n, self.lam_t, self.node_normal, self.master.open_sides,
+                         lam_n, self.lam_t, self.node_normal, self.master.open_sides,
                          self.area, self.penalty, self.friction, self.elastic_slip,
                          self.kappa, self.width, sp is not None, ptr, offsets, phi, pfacet, pxi,
                          rows, values, self.gap, self.p_new, self.shear, self.force,
@@ -238,6 +261,42 @@ class SlidingTerm:
         self.seconds += time.perf_counter() - t0
         b.assemblyBegin()
         b.assemblyEnd()
+
+    def _damped_trial(self, on: np.ndarray, damping: NormalDamping) -> np.ndarray:
+        """The normal multipliers plus ``-c dg/dt`` at the pairs ``on``.
+
+        ``dg/dt = (v_s - v_m) . n`` with the master's velocity and the smoothed normal at
+        the paired point (as the kernel interpolates them), at the pairs that penetrated
+        at the last evaluation (an approaching node is not pushed before it touches).
+        """
+        facets = self.master.facets[self.facet[on]]
+        x, e = self.xi[on, 0], self.xi[on, 1]
+        N = 0.25 * np.stack([(1 - x) * (1 - e), (1 + x) * (1 - e), (1 + x) * (1 + e),
+                             (1 - x) * (1 + e)], axis=1)
+        normal = np.einsum("ka,kaj->kj", N, self.node_normal[facets])
+        normal /= np.linalg.norm(normal, axis=1)[:, None]
+        v_master = np.einsum("ka,kaj->kj", N,
+                             self.master.gather(damping.master_velocity)[facets])
+        v_slave = damping.slave_velocity.reshape(-1, 3)[self.nodes[on]]
+        out = self.lam_n.copy()
+        rate = np.sum((v_slave - v_master) * normal, axis=1)
+        touching = self.gap[on] < 0.0  # at the last evaluation: no pressure before contact
+        out[on] -= damping.coefficient[on] * rate * touching
+        return out
+
+    def damping(self, zeta: float, slave_mass: np.ndarray, slave_velocity: np.ndarray,
+                master_velocity: np.ndarray) -> NormalDamping:
+        """Normal damping at ``zeta`` of critical for each slave node on the penalty spring.
+
+        Args:
+            zeta: Fraction of critical damping.
+            slave_mass: The slave body's lumped masses (3 per node) [t].
+            slave_velocity: The slave body's velocities (3 per node; read at each call).
+            master_velocity: The master body's velocities (3 per node; read at each call).
+        """
+        areal = slave_mass.reshape(-1, 3)[self.nodes, 0] / self.area
+        return NormalDamping(2.0 * zeta * np.sqrt(self.penalty * areal), slave_velocity,
+                             master_velocity)
 
     def add_jacobian(self, A: PETSc.Mat) -> None:
         """Add the contact's Jacobian to the solver's matrix (global indices).

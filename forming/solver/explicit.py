@@ -87,7 +87,8 @@ class ExplicitSolver:
         self._internal = {n: fem.form(b.residual(tests[n]), entity_maps=emaps)
                           for n, b in model.bodies.items() if self._loops[n] is None}
         # tool contacts node by node: tool work and friction energy
-        self._tools = [ToolTerm(by_name[c.spec.body], c) for c in model.contacts]
+        zeta_c = opts.contact_damping  # the normal approach of contacts, damped
+        self._tools = [ToolTerm(by_name[c.spec.body], c, zeta_c) for c in model.contacts]
         self._sides = [ExternalTerm(by_name[name], fem.form(r, entity_maps=emaps))
                        for itf in model.interfaces
                        for name, r in itf.residuals(tests).items()]
@@ -96,7 +97,8 @@ class ExplicitSolver:
             -ufl.dot(const, tests[tr.body]) * ds, entity_maps=emaps))
             for tr, const, ds in model.tractions]
         # finite sliding: assembled by global index, split per body after each assembly
-        self._outside = [OutsideForms(sl, model.layout, [by_name[b] for b in sl.bodies])
+        self._outside = [OutsideForms(sl, model.layout, [by_name[b] for b in sl.bodies],
+                                      lumped.sliding_damping(sl, by_name, zeta_c))
                          for sl in model.sliding]
         self._sides += [part for o in self._outside for part in o.parts]
         # surfaces in contact with themselves (folding walls): penalty at every increment
@@ -113,8 +115,9 @@ class ExplicitSolver:
         # recorded reactions: the residual at a face's prescribed dofs, f_all . w
         self._reactions = [(key, by_name[name], w.x.array[: by_name[name].n_owned])
                            for key, (name, w) in model.dirichlet.reaction_weights.items()]
-        self._bound = StableStep(model, self.states, opts,
-                                 opts.fibre_damping if self._viscous else 0.0)
+        self._bound = StableStep(model, self.states, opts, max(
+            opts.fibre_damping if self._viscous else 0.0,
+            zeta_c if self._tools or self._outside else 0.0))
         self.mass_added_fraction = self._bound.scale_masses()
         self.tau = 0.0
         self.time_steps = 0
@@ -165,7 +168,8 @@ class ExplicitSolver:
             self.dt = min(self.dt, self._dt_ref * math.sqrt(self._omega2_ref / omega2))
 
     # -- one increment ----------------------------------------------------------------------
-    def _assemble_forces(self) -> None:
+    def _assemble_forces(self, dt: float | None = None) -> None:
+        """Every force at the current state (``dt``: the increment that led here)."""
         t0 = time.perf_counter()
         for st in self.states:
             loop = self._loops[st.name]
@@ -182,7 +186,7 @@ class ExplicitSolver:
             term.state.f_all.x.array[:] += term.vec.x.array
         if self._tools:
             for tool in self._tools:
-                tool.update()
+                tool.update(dt)
             for st in self.states:  # tool residuals went into owned entries
                 st.f_all.x.scatter_forward()
         self.assembly_seconds += time.perf_counter() - t0
@@ -216,7 +220,7 @@ class ExplicitSolver:
                 bc.set(st.body.u.x.array)
             fixed = st.fixed
             st.v[fixed] = (st.body.u.x.array[fixed] - u0[fixed]) / dt
-        self._assemble_forces()
+        self._assemble_forces(dt)
         self._account(dt, tool_old)
         for st in self.states:
             self._accelerate(st)
@@ -408,10 +412,8 @@ class ExplicitSolver:
     def tool_force(self, contact) -> np.ndarray:
         """Mean force on the tool over the output interval (impulse over time).
 
-        A penalty contact in explicit dynamics rings at the contact frequency, so the
-        force at an instant scatters; like the anti-aliasing filter of Abaqus/Explicit's
-        history output, the force reported is the mean over the interval. At the start
-        (no interval yet) it is the force of the current state.
+        A penalty contact rings, so the force at an instant scatters; as Abaqus/Explicit's
+        anti-aliasing filter, the mean over the interval (at the start: the current force).
         """
         span = self.tau - self._tau_start
         if span > 0 and contact.name in self._impulse:
@@ -419,11 +421,7 @@ class ExplicitSolver:
         return contact.force()
 
     def reaction(self, key: str) -> float:
-        """Mean static reaction over the output interval.
-
-        The static reaction is the residual at the face's prescribed dofs, without the
-        inertia of the moving nodes.
-        """
+        """Mean static reaction (prescribed dofs' residual, no inertia) over the interval."""
         span = self.tau - self._tau_start
         if span > 0 and key in self._reaction_impulse:
             return self.comm.allreduce(self._reaction_impulse[key], op=MPI.SUM) / span

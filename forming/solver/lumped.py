@@ -119,24 +119,56 @@ def viscous_terms(states: list[BodyState], tests: dict, emaps) -> list[ViscousTe
     return out
 
 
+def sliding_damping(sliding, states: dict[str, BodyState], zeta: float):
+    """A sliding interface's normal damping at ``zeta`` of critical (None: ``zeta`` 0).
+
+    Args:
+        sliding: The interface (:class:`~forming.contact.sliding.SlidingTerm`).
+        states: The explicit state of every body, by name.
+        zeta: Fraction of critical damping (of the slave's physical nodal mass).
+    """
+    if zeta <= 0:
+        return None
+    master, slave = (states[b] for b in sliding.bodies)
+    return sliding.damping(zeta, slave.m_phys, slave.v, master.v)
+
+
 class ToolTerm:
     """A tool contact on one body, evaluated node by node at the rank's owned nodes.
 
     Args:
         state: The body's explicit state.
         contact: The tool contact (a :class:`~forming.contact.terms.ContactTerm`).
+        damping: Fraction of critical damping of each node's normal approach on the
+            penalty spring (0: none).
     """
 
-    def __init__(self, state: BodyState, contact):
+    def __init__(self, state: BodyState, contact, damping: float = 0.0):
         self.state = state
         self.contact = contact
         self.nodal = contact.nodal()
         self.dofs = self.nodal.dofs
+        nodal = self.nodal
+        areal = state.m_phys.reshape(-1, 3)[nodal.nodes, 0] / nodal.area
+        self.damping = (2.0 * damping * np.sqrt(nodal.penalty * areal) if damping > 0
+                        else None)  # [MPa s/mm] per node
+        self._offset = contact.tool_offset()  # at the last update
 
-    def update(self) -> None:
-        """Evaluate the contact and add its residual to the body's (owned entries)."""
+    def update(self, dt: float | None = None) -> None:
+        """Evaluate the contact and add its residual to the body's (owned entries).
+
+        Args:
+            dt: The increment just taken (the tool's and the nodes' velocities over it
+                damp the normal approach); None: no damping (the state at rest).
+        """
         u = self.state.body.u.x.array
-        r = self.nodal.residual(u, self.contact.tool_offset())
+        offset = self.contact.tool_offset()
+        rate = None
+        if self.damping is not None and dt:
+            v = self.state.v.reshape(-1, 3)[self.nodal.nodes] - (offset - self._offset) / dt
+            rate = (self.damping, v)
+        self._offset = offset
+        r = self.nodal.residual(u, offset, rate)
         self.state.f_all.x.array[self.dofs] += r.ravel()
 
     def work_on_body(self, du: np.ndarray) -> float:
@@ -188,15 +220,17 @@ class OutsideForms:
     interval (:meth:`start_interval`), not at each increment.
 
     Args:
-        term: The constraint (``add_residual(vec)`` with global indices).
+        term: The constraint (``add_residual(vec, damping)`` with global indices).
         layout: The model's dof layout.
         states: The explicit state of the bodies it acts on.
+        damping: Its normal damping (:meth:`SlidingTerm.damping`), or None.
     """
 
-    def __init__(self, term, layout, states: list[BodyState]):
+    def __init__(self, term, layout, states: list[BodyState], damping=None):
         from petsc4py import PETSc
 
         self.term = term
+        self.damping = damping
         term.search_on_load(False)
         self.parts = [_Part(st) for st in states]
         comm = states[0].body.mesh.comm
@@ -211,7 +245,7 @@ class OutsideForms:
     def update(self) -> None:
         """Assemble the constraint's residual and hand each body its part."""
         self._vec.zeroEntries()
-        self.term.add_residual(self._vec)
+        self.term.add_residual(self._vec, self.damping)
         values = self._vec.getArray(readonly=True)
         for part, sl in zip(self.parts, self._slices, strict=True):
             part.r_old[:] = part.r_new

@@ -113,6 +113,12 @@ class ExplicitOptions:
             (stiffness-proportional viscosity along the fibres; the linear bulk viscosity
             of Abaqus/Explicit damps solids at 0.06 in the same way); lower modes are
             damped in proportion to their frequency. 0 compiles no damping term.
+        contact_damping: Fraction of critical damping of each contact node's normal
+            approach on its penalty spring, with the node's physical mass (tools and
+            finite-sliding interfaces; LS-DYNA's VDC, whose manual suggests 20%): a
+            viscous pressure ``-c dg/dt`` joins the penalty's while the node touches.
+            Undamped, light skin nodes chatter on their penalty springs and lose their
+            friction history at every opening. 0: none.
         output_interval: Load-parameter interval between history rows (the stable time
             step is re-evaluated at each); None: the job's largest load step, at most
             0.02.
@@ -138,6 +144,7 @@ class ExplicitOptions:
     target_time_step: float | None = None
     damping: float = 0.0
     fibre_damping: float = 0.06
+    contact_damping: float = 0.2
     output_interval: float | None = None
     quasi_static_limit: float = 0.05
     integration: Literal["full", "reduced"] = "full"
@@ -172,6 +179,9 @@ class ExplicitOptions:
         if not (math.isfinite(self.fibre_damping) and 0 <= self.fibre_damping < 1):
             raise InputError("explicit.fibre_damping",
                              f"must lie in [0, 1), got {self.fibre_damping!r}")
+        if not (math.isfinite(self.contact_damping) and 0 <= self.contact_damping < 1):
+            raise InputError("explicit.contact_damping",
+                             f"must lie in [0, 1), got {self.contact_damping!r}")
         iv = self.output_interval
         if iv is not None and not 0 < iv <= 1:
             raise InputError("explicit.output_interval", f"must lie in (0, 1], got {iv!r}")
