@@ -150,6 +150,7 @@ class SlidingTerm:
         self.hist_xi = self._start_xi.copy()
         self.rel = self.X0 - self._point(self.master.X0, self._start, self._start_xi)
         self.touched = np.zeros(n, dtype=bool)
+        self.openings = 0  # touched nodes that opened at a commit, since the last row
         self.lam_t = np.zeros((n, 3))  # converged shear traction
 
     def _point(self, xm: np.ndarray, facet: np.ndarray, xi: np.ndarray) -> np.ndarray:
@@ -412,7 +413,9 @@ class SlidingTerm:
         """Accept the step: the touched master points and the shear become history."""
         xs = self._slave_positions()
         xm = self.master.positions()
-        self.touched[:] = self.inside & (self.p_new > 0.0)
+        now = self.inside & (self.p_new > 0.0)
+        self.openings += int(np.count_nonzero(self.touched & ~now))
+        self.touched[:] = now
         self.hist[:] = self.facet
         self.hist_xi[:] = self.xi
         self.lam_t[:] = np.where(self.touched[:, None], self.shear, 0.0)
@@ -453,8 +456,15 @@ class SlidingTerm:
         return (self.slave.domain.layout(self.slave.V),) * 4
 
     def history_columns(self, forces: ForceSampler) -> dict[str, float]:
-        """Force of the master on the slave [N] (x, y, z), normal force, penetration [mm]."""
+        """Force of the master on the slave [N] (x, y, z), normal force, penetration [mm].
+
+        Also ``openings``: how often a touching node opened at a commit since the last
+        row (an explicit run commits every increment: nodes that chatter on the penalty
+        spring lose their friction history at each opening).
+        """
         f = self.comm.allreduce(self.force.sum(axis=0), op=MPI.SUM)
+        openings = self.comm.allreduce(self.openings, op=MPI.SUM)
+        self.openings = 0
         fn = self.comm.allreduce(float(self.area @ self.p_new), op=MPI.SUM)
         extra = {}
         if self.kappa > 0.0:
@@ -462,7 +472,8 @@ class SlidingTerm:
             extra = {f"sliding_{self.name}_stabilisation_N": float(np.linalg.norm(spring))}
         return {f"sliding_{self.name}_{axis}_N": float(f[k]) for k, axis in enumerate("xyz")
                 } | {f"sliding_{self.name}_normal_N": fn,
-                     f"sliding_{self.name}_penetration_mm": self.penetration()} | extra
+                     f"sliding_{self.name}_penetration_mm": self.penetration(),
+                     f"sliding_{self.name}_openings": float(openings)} | extra
 
     def max_slip(self) -> float:
         """Largest distance of a slave node from the master point it started on [mm]."""

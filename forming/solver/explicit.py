@@ -306,6 +306,7 @@ class ExplicitSolver:
         self.model.set_load(self.options.load(self.tau))
         for tool in self._tools:  # surface-mesh tools: pair nodes with facets again
             tool.nodal.repair()
+            tool.hold()
 
     def solve(self) -> StepResult:
         """Integrate in time until the load parameter reaches the interval's end."""

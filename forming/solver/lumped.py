@@ -154,6 +154,10 @@ class ToolTerm:
                         else None)  # [MPa s/mm] per node
         self._offset = contact.tool_offset()  # at the last update
 
+    def hold(self) -> None:
+        """Take the tool's position now as its last one (an interval starts, or a restart)."""
+        self._offset = self.contact.tool_offset()
+
     def update(self, dt: float | None = None) -> None:
         """Evaluate the contact and add its residual to the body's (owned entries).
 
