@@ -178,7 +178,7 @@ class BodyBase:
         return self.jacobian(du, v)
 
     def viscous_residual(self, v: fem.Function, beta: fem.Constant, w) -> ufl.Form | None:
-        """None: no damping of the body's own (explicit runs damp it with the mass)."""
+        """None: the body has no damping of its own (a fabric's fibres have)."""
         del v, beta, w
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
