@@ -20,6 +20,17 @@ _TINY = 1e-30
 _SLACK = 1e-12  # stick test slack [MPa], as the forms
 
 
+def critical_damping(zeta: float, penalty: float, areal_mass: np.ndarray) -> np.ndarray:
+    """Normal damping ``c = 2 zeta sqrt(eps m/A)`` [MPa s/mm] of a node on a penalty spring.
+
+    Args:
+        zeta: Fraction of critical damping.
+        penalty: The penalty ``eps`` [N/mm^3].
+        areal_mass: The node's mass over its area ``m/A`` [t/mm^2].
+    """
+    return 2.0 * zeta * np.sqrt(penalty * areal_mass)
+
+
 class NodalContact:
     """Penalty contact of a region's owned nodes with a rigid tool.
 

@@ -46,6 +46,7 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from forming.contact.nodal import critical_damping
 from forming.contact.slidebatch import distinct_facets, jacobian_all, pair_all, residual_all
 from forming.contact.slidekernels import FADE
 from forming.contact.slidesurface import INSIDE, Surface, node_normals, search_all
@@ -296,7 +297,7 @@ class SlidingTerm:
             master_velocity: The master body's velocities (3 per node; read at each call).
         """
         areal = slave_mass.reshape(-1, 3)[self.nodes, 0] / self.area
-        return NormalDamping(2.0 * zeta * np.sqrt(self.penalty * areal), slave_velocity,
+        return NormalDamping(critical_damping(zeta, self.penalty, areal), slave_velocity,
                              master_velocity)
 
     def add_jacobian(self, A: PETSc.Mat) -> None:

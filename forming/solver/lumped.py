@@ -13,6 +13,7 @@ import ufl
 from dolfinx import fem  # noqa: I001
 
 from forming import compat  # noqa: F401
+from forming.contact.nodal import critical_damping
 from forming.errors import InputError
 from forming.vectors import assembled
 
@@ -150,7 +151,7 @@ class ToolTerm:
         self.dofs = self.nodal.dofs
         nodal = self.nodal
         areal = state.m_phys.reshape(-1, 3)[nodal.nodes, 0] / nodal.area
-        self.damping = (2.0 * damping * np.sqrt(nodal.penalty * areal) if damping > 0
+        self.damping = (critical_damping(damping, nodal.penalty, areal) if damping > 0
                         else None)  # [MPa s/mm] per node
         self._offset = contact.tool_offset()  # at the last update
 
