@@ -28,11 +28,12 @@ from forming.job import Job
 from forming.materials.fabric import NonCrimpFabric
 from forming.materials.library import honeycomb_core
 from forming.sandwich import Outline, sandwich_blank
-from forming.scene import Body, Displacement, Interface, Linear, Scene, Traction
+from forming.scene import Body, Displacement, Interface, Scene, Table, Traction
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 FABRIC_CORE_FRICTION = 0.52  # paper, section "Friction between materials"
+LOADING = 0.2  # share of the load programme that puts the weight on, before the pull
 
 
 @dataclass(frozen=True)
@@ -65,10 +66,13 @@ def build(p: Params) -> Job:
                 Body("skin_top", fabric, region="skin_top")),
         displacements=(
             Displacement("skin_bottom", "bottom", x=0.0, y=0.0, z=0.0, reaction=False),
-            # the sled's plate drags the top face along x and keeps it from drifting in y
-            Displacement("skin_top", "top", x=Linear(p.drag), y=0.0),
+            # the sled's plate drags the top face along x and keeps it from drifting in y,
+            # once the weight is on (a weight put on at once rings in an explicit run)
+            Displacement("skin_top", "top", x=Table((0.0, LOADING, 1.0), (0.0, 0.0, p.drag)),
+                         y=0.0),
         ),
-        tractions=(Traction("skin_top", "top", z=-p.pressure),),
+        tractions=(Traction("skin_top", "top", z=Table((0.0, LOADING, 1.0),
+                                                       (0.0, -p.pressure, -p.pressure))),),
         interfaces=(Interface("interface_bottom", "core", "skin_bottom", kind="bonded"),
                     Interface("interface_top", "core", "skin_top", friction=p.friction)),
     )

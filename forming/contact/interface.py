@@ -11,7 +11,9 @@ the two bodies' degrees. Normal contact (and a
 bonded tie) is an augmented Lagrangian as for tools (:mod:`forming.contact.terms`):
 fixed multipliers within a Newton solve, Uzawa updates between solves. Friction is a
 Coulomb return mapping on the slip increment of the step with a penalty stick of
-elastic slip (docs/theory.md, section 11); its traction is history, updated at commit.
+elastic slip (docs/theory.md, section 11); its elastic slip is history, updated at
+commit, and the stick traction is ``mu p`` times its fraction of the elastic-slip limit.
+Explicit runs damp the nodes' normal approach (:meth:`InterfaceTerm.damped_residuals`).
 Nodal values of the tractions come from assembling them against the test function
 and dividing by the nodal area (the nodal rule makes this exact where the adjacent
 facets agree, and an area average where the deformed normal jumps between facets).
@@ -20,6 +22,7 @@ facets agree, and an area average where the deformed normal jumps between facets
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 import ufl
@@ -76,6 +79,35 @@ def interface_entities(md, first, second, region: str) -> np.ndarray:
     return ent.ravel()
 
 
+@dataclass(frozen=True)
+class InterfaceDamping:
+    """What the damped traction of an interface reads (explicit runs).
+
+    Attributes:
+        zeta: Fraction of critical damping of each node pair's normal approach.
+        velocities: The first and the second body's velocities (filled by the solver
+            before each assembly).
+        areal: The first and the second body's nodal masses over their interface areas
+            [t/mm^2] (per dof; zero off the interface).
+    """
+
+    zeta: float
+    v1: fem.Function
+    v2: fem.Function
+    a1: fem.Function
+    a2: fem.Function
+
+    @property
+    def velocities(self) -> tuple[fem.Function, fem.Function]:
+        """The two velocity functions, first body first."""
+        return self.v1, self.v2
+
+    @property
+    def areal(self) -> tuple[fem.Function, fem.Function]:
+        """The two areal-mass functions, first body first."""
+        return self.a1, self.a2
+
+
 class InterfaceTerm:
     """Frictional (or bonded) contact between two bodies on their shared facets.
 
@@ -117,9 +149,11 @@ class InterfaceTerm:
         self._x = W.tabulate_dof_coordinates()
         self._owned = self._dofs[self._dofs < W.dofmap.index_map.size_local]
         self.lam_n = None if self.bonded else fem.Function(W, name="interface_pressure")
-        self.lam_t = None  # tangential traction (frictional) or the whole traction (bonded)
+        # tangential history: the elastic slip [mm] (frictional) or the traction (bonded)
+        self.lam_t = None
         if self.bonded or self.friction > 0.0:
-            self.lam_t = fem.Function(Wv, name="interface_traction")
+            self.lam_t = fem.Function(Wv, name="interface_traction" if self.bonded
+                                      else "interface_elastic_slip")
         u1, u2 = first.u("+"), second.u("-")
         F1 = ufl.Identity(3) + ufl.grad(first.u)("+")
         n0 = ufl.FacetNormal(parent)("+")
@@ -140,14 +174,16 @@ class InterfaceTerm:
                 # smoothed ramp: every node of a conforming interface starts at the kink
                 # (gap 0, pressure 0), where Newton can cycle between open and closed
                 delta = fem.Constant(parent, spec.smoothing * self.penalty * self.tolerance)
-                self.pressure = smoothed_pressure(trial_p, delta)
+                self._ramp = lambda trial: smoothed_pressure(trial, delta)
             else:
-                self.pressure = normal_pressure(trial_p)
+                self._ramp = normal_pressure
+            self.pressure = self._ramp(trial_p)
             # the Uzawa update uses the exact (kinked) ramp: its fixed point is exact
             # complementarity, and the smoothing only changes the Newton iterates' force by
             # at most delta / 2 (an equivalent penetration of smoothing / 2 x tolerance);
             # updating with the smoothed ramp drove lam * gap to a constant, slowly
             self._uzawa_pressure = normal_pressure(trial_p)
+            self._trial_p = trial_p
             traction = self.pressure * n
         self.u1_prev = fem.Function(first.V)
         self.u2_prev = fem.Function(second.V)
@@ -160,12 +196,17 @@ class InterfaceTerm:
             # the tangential stiffness vanishes smoothly with it. Every node of a skin laid
             # on a core starts at zero pressure; an augmented stick constraint switched there
             # between stick and slip in arbitrary directions and stalled Newton (hemisphere).
+            # The history is the elastic slip (at most elastic_slip long), not the traction:
+            # the stick spring follows the pressure at once. With the traction as history a
+            # node whose pressure dipped kept the lower traction and rebuilt it by k_t times
+            # the slip of each increment: explicit runs lost their friction to this ratchet
+            # (the sled's drag fell from 0.5 to 0.01 of the load at a steady normal force).
             increment = proj * step_jump
-            limit = self.friction * self.pressure
-            k_t = limit / self.elastic_slip
-            self.shear = coulomb_return(proj * self.lam_t("+") - k_t * increment, limit)
+            self._s_el = coulomb_return(proj * self.lam_t("+") + increment, self.elastic_slip)
+            self.shear = -(self.friction / self.elastic_slip) * self.pressure * self._s_el
             traction = traction + self.shear
         self.stabilisation = None
+        self._stab = None
         if spec.stabilisation > 0.0 and not self.bonded:
             # a weak spring on the relative motion within the step (Abaqus' contact
             # stabilisation): it gives a skin that lifts off, or a node that opens and
@@ -182,7 +223,7 @@ class InterfaceTerm:
             self._p_form = self._form(self._uzawa_pressure * w("+") * dS)
             self._g_form = self._form(self.gap * w("+") * dS)
         if self.lam_t is not None:
-            new_t = self.traction if self.bonded else self.shear
+            new_t = self.traction if self.bonded else self._s_el
             self._t_form = self._form(ufl.dot(new_t, wv("+")) * dS)
         self._slip_form = self._form(ufl.dot(self.slip_total, wv("+")) * dS)
         self._normal_force = self._form(
@@ -225,6 +266,56 @@ class InterfaceTerm:
         """Virtual work of the interface traction on both bodies, by body name."""
         r1, r2 = self.side_residuals(tests[self.spec.body], tests[self.spec.other])
         return {self.spec.body: r1, self.spec.other: r2}
+
+    def damping(self, zeta: float, masses: tuple[np.ndarray, np.ndarray]) -> InterfaceDamping:
+        """Damping of the nodes' relative normal approach at ``zeta`` of critical.
+
+        Each pair of nodes is a two-mass oscillator on the penalty spring: its critical
+        damping per area is ``2 sqrt(eps m_r / A)`` with the reduced mass
+        ``m_r = m1 m2 / (m1 + m2)`` (about the skin node's on a core).
+
+        Args:
+            zeta: Fraction of critical damping.
+            masses: The lumped masses of the first and the second body (3 per node) [t].
+        """
+        ones = ufl.as_vector([1.0, 1.0, 1.0])
+        areal = []
+        for body, side, m in ((self.first, "+", masses[0]), (self.second, "-", masses[1])):
+            area = self._assemble(self._form(ufl.dot(ones, ufl.TestFunction(body.V)(side))
+                                             * self._dS))
+            a = fem.Function(body.V)
+            on = area > 0
+            a.x.array[on] = m[on] / area[on]
+            areal.append(a)
+        return InterfaceDamping(zeta, fem.Function(self.first.V), fem.Function(self.second.V),
+                                areal[0], areal[1])
+
+    def damped_residuals(self, tests: dict, damping: InterfaceDamping) -> dict[str, ufl.Form]:
+        """As :meth:`residuals`, with a viscous traction on the nodes' approach (explicit).
+
+        A frictional or frictionless interface adds ``-c dg/dt`` to the trial pressure
+        where the node penetrates (it never pulls, and it does not push before contact);
+        the friction limit stays with the penalty pressure, so the committed friction
+        history is the one applied. A bonded interface's tie gets ``-c`` times the whole
+        relative velocity.
+        """
+        a1, a2 = damping.areal[0][0], damping.areal[1][0]
+        c = 2.0 * damping.zeta * ufl.sqrt(self._eps * a1("+") * a2("-") / (a1("+") + a2("-")))
+        rel = damping.velocities[1]("-") - damping.velocities[0]("+")
+        if self.bonded:
+            traction = self.traction - c * rel
+        else:
+            rate = ufl.dot(rel, self.normal)
+            trial = self._trial_p - ufl.conditional(ufl.lt(self.gap, 0.0), c * rate, 0.0)
+            pressure = self._ramp(trial)
+            traction = pressure * self.normal
+            if self.friction > 0.0:  # the same elastic slip, at the damped pressure
+                traction = traction - (self.friction / self.elastic_slip) * pressure * self._s_el
+            if self._stab is not None:
+                traction = traction + self._stab
+        v1, v2 = tests[self.spec.body], tests[self.spec.other]
+        return {self.spec.body: ufl.dot(traction, v1("+")) * self._dS,
+                self.spec.other: -ufl.dot(traction, v2("-")) * self._dS}
 
     def stiffness_estimate(self, tests: dict) -> dict[str, ufl.Form]:
         """Twice the penalty on each side's nodes: the coupling row adds as much again."""

@@ -89,9 +89,7 @@ class ExplicitSolver:
         # tool contacts node by node: tool work and friction energy
         zeta_c = opts.contact_damping  # the normal approach of contacts, damped
         self._tools = [ToolTerm(by_name[c.spec.body], c, zeta_c) for c in model.contacts]
-        self._sides = [ExternalTerm(by_name[name], fem.form(r, entity_maps=emaps))
-                       for itf in model.interfaces
-                       for name, r in itf.residuals(tests).items()]
+        self._sides = lumped.interface_terms(model.interfaces, by_name, tests, emaps, zeta_c)
         # distributed loads: external forces that are neither contact nor interface
         self._loads = [ExternalTerm(by_name[tr.body], fem.form(
             -ufl.dot(const, tests[tr.body]) * ds, entity_maps=emaps))
@@ -117,7 +115,7 @@ class ExplicitSolver:
                            for key, (name, w) in model.dirichlet.reaction_weights.items()]
         self._bound = StableStep(model, self.states, opts, max(
             opts.fibre_damping if self._viscous else 0.0,
-            zeta_c if self._tools or self._outside else 0.0))
+            zeta_c if self._tools or self._outside or model.interfaces else 0.0))
         self.mass_added_fraction = self._bound.scale_masses()
         self.tau = 0.0
         self.time_steps = 0

@@ -120,6 +120,52 @@ def viscous_terms(states: list[BodyState], tests: dict, emaps) -> list[ViscousTe
     return out
 
 
+class InterfaceSide(ExternalTerm):
+    """One body's share of a damped interface: the velocities go in before assembly.
+
+    Args:
+        state: The body's explicit state.
+        form: The damped traction's virtual work on this body.
+        fills: (function, state) pairs: each state's half-step velocities are copied
+            into its function before the form is assembled.
+    """
+
+    def __init__(self, state: BodyState, form: fem.Form, fills: list):
+        super().__init__(state, form)
+        self.fills = fills
+
+    def update(self) -> None:
+        """The bodies' velocities into the form, then assemble."""
+        for function, st in self.fills:
+            function.x.array[:] = st.v
+        super().update()
+
+
+def interface_terms(interfaces, states: dict[str, BodyState], tests: dict, emaps,
+                    zeta: float) -> list[ExternalTerm]:
+    """Both sides of every small-sliding interface, damped at ``zeta`` (0: as implicit).
+
+    Args:
+        interfaces: The model's interfaces (:class:`~forming.contact.interface.InterfaceTerm`).
+        states: The explicit state of every body, by name.
+        tests: The bodies' test functions, by name.
+        emaps: The scene mesh's entity maps (or None).
+        zeta: Fraction of critical damping of the nodes' normal approach.
+    """
+    out: list[ExternalTerm] = []
+    for itf in interfaces:
+        if zeta <= 0:
+            out += [ExternalTerm(states[name], fem.form(r, entity_maps=emaps))
+                    for name, r in itf.residuals(tests).items()]
+            continue
+        first, second = (states[b] for b in itf.bodies)
+        damping = itf.damping(zeta, (first.m_phys, second.m_phys))
+        fills = [(damping.v1, first), (damping.v2, second)]
+        out += [InterfaceSide(states[name], fem.form(r, entity_maps=emaps), fills)
+                for name, r in itf.damped_residuals(tests, damping).items()]
+    return out
+
+
 def sliding_damping(sliding, states: dict[str, BodyState], zeta: float):
     """A sliding interface's normal damping at ``zeta`` of critical (None: ``zeta`` 0).
 

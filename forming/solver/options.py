@@ -114,8 +114,8 @@ class ExplicitOptions:
             of Abaqus/Explicit damps solids at 0.06 in the same way); lower modes are
             damped in proportion to their frequency. 0 compiles no damping term.
         contact_damping: Fraction of critical damping of each contact node's normal
-            approach on its penalty spring, with the node's physical mass (tools and
-            finite-sliding interfaces; LS-DYNA's VDC, typically 10-20%): a
+            approach on its penalty spring, with the node's physical mass (tools,
+            small- and finite-sliding interfaces; LS-DYNA's VDC, typically 10-20%): a
             viscous pressure ``-c dg/dt`` joins the penalty's while the node touches.
             Undamped, light skin nodes chatter on their penalty springs and lose their
             friction history at every opening. 0: none.
