@@ -7,7 +7,8 @@ default) and the fabric is pulled ``drag`` mm, 5.6 core element lengths by defau
 node-to-surface finite sliding (docs/theory.md, section 11). The fabric starts so that
 none of its nodes lies on a core facet's edge. ``metrics.friction_ratio_*`` is the force
 the core puts on the fabric along x over the normal force, once sliding (after 5% of
-the pull); it should equal the coefficient at every step.
+the pull); it should equal the coefficient at every step. The weight goes on over the
+first tenth of the load programme (``weight_first``), the pull follows.
 
 Accuracy of the defaults (docs/validation.md, "Convergence of the shipped cases"): the
 friction ratio is 0.51999 with 10 and 20 fabric elements per side (the finer costs 4.3
@@ -25,12 +26,13 @@ from typing import Literal
 import numpy as np
 
 from forming.case import main, require
+from forming.errors import InputError
 from forming.job import Job
 from forming.materials import ElasticSolid, IsotropicElasticity
 from forming.materials.fabric import NonCrimpFabric
 from forming.materials.library import honeycomb_core
 from forming.mesh import Block, blocks
-from forming.scene import Body, Displacement, Linear, Scene, Sliding, Traction
+from forming.scene import Body, Displacement, Linear, Scene, Sliding, Table, Traction
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
@@ -51,12 +53,19 @@ class Params:
     max_step: float = 0.05  # largest load step
     transfer: Literal["area", "point"] = "area"  # the master's load: tributary area or point
     stabilisation: float = 0.0  # weak spring on the fabric's motion within a step (x penalty)
+    weight_first: float = 0.1  # load share that puts the weight on before the pull (0: at once)
 
 
 def scene(p: Params) -> Scene:
     """The core block, the fabric on it and the sliding contact between them."""
     require(p, positive=("pressure", "core_element", "skin_cells", "max_step"),
             nonnegative=("drag", "friction", "overlap", "stabilisation"))
+    if not 0.0 <= p.weight_first < 1.0:
+        raise InputError("--set weight_first", f"must lie in [0, 1), got {p.weight_first}")
+    share = p.weight_first
+    pull = Table((0.0, share, 1.0), (0.0, 0.0, p.drag)) if share > 0 else Linear(p.drag)
+    weight = (Table((0.0, share, 1.0), (0.0, -p.pressure, -p.pressure)) if share > 0
+              else -p.pressure)
     mesh = blocks([
         Block("core", (200.0, 50.0, 10.0), (round(200.0 / p.core_element),
                                             round(50.0 / p.core_element), 2)),
@@ -70,9 +79,10 @@ def scene(p: Params) -> Scene:
                                Body("skin", skin, region="skin")),
         displacements=(Displacement("core", "core_bottom", x=0.0, y=0.0, z=0.0,
                                     reaction=False),
-                       # the sled's plate pulls the top face and keeps it from drifting in y
-                       Displacement("skin", "skin_top", x=Linear(p.drag), y=0.0)),
-        tractions=(Traction("skin", "skin_top", z=-p.pressure),),
+                       # the sled's plate pulls the top face and keeps it from drifting in
+                       # y, once the weight is on (put on at once, it rings explicitly)
+                       Displacement("skin", "skin_top", x=pull, y=0.0)),
+        tractions=(Traction("skin", "skin_top", z=weight),),
         sliding=(Sliding("skin", "core", "core_top", "skin", "skin_bottom",
                          friction=p.friction, transfer=p.transfer,
                          stabilisation=p.stabilisation),))
@@ -83,7 +93,7 @@ def build(p: Params) -> Job:
 
     def metrics(rec, model) -> dict:
         t = rec.column("t")
-        sliding = t > 0.05
+        sliding = t > p.weight_first + 0.05 * (1.0 - p.weight_first)  # after 5% of the pull
         normal = rec.column("sliding_skin_z_N")
         ratio = -rec.column("sliding_skin_x_N")[sliding] / normal[sliding]
         return {"friction_ratio_min": float(ratio.min()),

@@ -126,26 +126,25 @@ def test_contact_damping_adds_a_viscous_pressure_only_while_touching():
     assert damped == pytest.approx([0.1 + 2 * c, 0.1 - 0.1 * c, 0.0, 0.0])
 
 
-def test_explicit_large_slip_sled_keeps_more_friction_with_contact_damping(tmp_path):
-    """The finite-sliding sled (fabric dragged 1 mm over the core under 2 kPa in 0.01 s,
-    coarse skin): the implicit run holds drag / load at mu = 0.52 from its second step.
-    Explicitly, undamped, the light skin nodes chatter on their penalty springs, each
-    opening wipes their friction history, and the drag reaches 0.016 of the load; with
-    the default contact damping (20% of critical) 0.20 (measured). Asserted: damped
-    above 0.15 and at least 5 times the undamped. The rest of the gap to 0.52 is open
-    (docs/validation.md). A failure means the damping no longer reaches the
-    finite-sliding pairs, or the friction history is lost again.
+def test_explicit_large_slip_sled_keeps_most_of_its_friction(tmp_path):
+    """The finite-sliding sled (fabric pulled 1 mm over the core under 2 kPa in 0.01 s,
+    coarse skin; the weight on over the first tenth of the load, then the pull): the
+    implicit run holds drag / load at mu = 0.52 at every sliding step. Explicitly the
+    light skin nodes used to chatter on their penalty springs (the weight put on at once
+    rang through the run), and a stick stiffness that followed their ringing pressure
+    ratcheted the friction down: 0.016 of the load undamped, 0.20 with the contact
+    damping (measured before the weight was ramped and the explicit pairs held a
+    sticking node with the penalty). Now 0.465 (0.446 undamped). Asserted: the mean over
+    the second half of the pull above 0.44 (mu within 15%). The rest of the gap is open
+    (docs/validation.md). A failure means the explicit pairs lose their friction again.
     """
     sets = ["solver=explicit", "drag=1", "skin_cells=5", "explicit.loading_time=0.01"]
-    ratios = []
-    for zeta in ("0.2", "0"):
-        out = tmp_path / zeta
-        s = run_case("sliding_sled", out, [*sets, f"explicit.contact_damping={zeta}"])
-        assert s["status"] == "completed", s["reason"]
-        h = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
-        late = h["t"] > 0.5
-        ratios.append(np.mean(np.abs(h["reaction_skin_skin_top_x_N"][late])) / (0.002 * 2400))
-    assert ratios[0] > 0.15 and ratios[0] > 5 * ratios[1], ratios
+    s = run_case("sliding_sled", tmp_path, sets)
+    assert s["status"] == "completed", s["reason"]
+    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    late = h["t"] > 0.55
+    ratio = np.mean(np.abs(h["reaction_skin_skin_top_x_N"][late])) / (0.002 * 2400)
+    assert ratio > 0.44, ratio
 
 
 def test_explicit_small_sliding_sled_holds_the_friction_coefficient(tmp_path):

@@ -33,9 +33,9 @@ def _same_histories(a, b, columns: tuple[str, ...], rtol: float = 1e-6) -> None:
 
 def _sled(drag: float, overlap: float = 0.0, pressure: float = 0.002,
           skin: str = "fabric", transfer: str = "area") -> Scene:
-    """The large-slip sled's scene (cases/sliding_sled.py)."""
+    """The large-slip sled's scene (cases/sliding_sled.py), weight and pull together."""
     return SLED.scene(SLED.Params(drag=drag, overlap=overlap, pressure=pressure, skin=skin,
-                                  transfer=transfer))
+                                  transfer=transfer, weight_first=0.0))
 
 
 def test_large_slip_sled_keeps_the_friction_ratio(tmp_path):

@@ -188,7 +188,8 @@ def pair_residual(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps,
             for a in range(4):
                 slip -= Nh[a] * H[a]
             slip -= (slip[0] * n[0] + slip[1] * n[1] + slip[2] * n[2]) * n
-            trial -= (limit / s_el) * slip
+            # elastic slip: stiffness mu p / s_el; s_el = 0: the penalty eps (explicit runs)
+            trial -= (limit / s_el if s_el > 0.0 else eps) * slip
         size = math.sqrt(trial[0] ** 2 + trial[1] ** 2 + trial[2] ** 2 + 1e-30)
         slipping = size > limit + 1e-12 if mode_t < 0 else mode_t == 1
         shear = (limit / size) * trial if slipping else trial

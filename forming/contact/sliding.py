@@ -225,12 +225,17 @@ class SlidingTerm:
             else:
                 self.spreading.follow(xs, xm)
 
-    def add_residual(self, b: PETSc.Vec, damping: NormalDamping | None = None) -> None:
+    def add_residual(self, b: PETSc.Vec, damping: NormalDamping | None = None,
+                     penalty_stick: bool = False) -> None:
         """Add the contact's residual to the solver's vector (global indices).
 
         Every pair in one compiled call (:func:`~forming.contact.slidebatch.residual_all`).
         With ``damping`` (explicit runs) each pair's trial pressure also carries the
         viscous pressure ``-c dg/dt`` of its normal approach (:class:`NormalDamping`).
+        With ``penalty_stick`` (explicit runs) a sticking node is held by the normal
+        penalty instead of the elastic slip's ``mu p / s_el``: the traction is the
+        history, and a stick stiffness that follows a ringing pressure ratchets it down
+        (docs/theory.md, section 12).
         """
         t0 = time.perf_counter()
         xs = self._slave_positions()
@@ -253,7 +258,8 @@ class SlidingTerm:
         n = residual_all(on, xs, xm, self.master.facets, self.master.index, self.s_index,
                          self.facet, self.xi, self.hist, self.hist_xi, self.touched, self.rel,
                          lam_n, self.lam_t, self.node_normal, self.master.open_sides,
-                         self.area, self.penalty, self.friction, self.elastic_slip,
+                         self.area, self.penalty, self.friction,
+                         0.0 if penalty_stick else self.elastic_slip,
                          self.kappa, self.width, sp is not None, ptr, offsets, phi, pfacet, pxi,
                          rows, values, self.gap, self.p_new, self.shear, self.force,
                          self.spring)

@@ -296,7 +296,7 @@ class OutsideForms:
     def update(self) -> None:
         """Assemble the constraint's residual and hand each body its part."""
         self._vec.zeroEntries()
-        self.term.add_residual(self._vec, self.damping)
+        self.term.add_residual(self._vec, self.damping, penalty_stick=True)
         values = self._vec.getArray(readonly=True)
         for part, sl in zip(self.parts, self._slices, strict=True):
             part.r_old[:] = part.r_new
