@@ -154,10 +154,7 @@ _ALL_DEFAULTS = (
     pytest.param("sandwich_bending", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
     pytest.param("skin_sled", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
     pytest.param("bias_extension", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
-    pytest.param("picture_frame", marks=pytest.mark.xfail(
-        reason="issue 16: KE/IE 8.4 where the shear cycle crosses zero and the frame drives "
-               "the ply (the curve is within 1.2%/6.1%: tests/test_explicit_fabric.py)",
-        strict=True)),
+    "picture_frame",
 )
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from mpi4py import MPI
 
 _KEYS = ("internal", "external", "friction", "damping")
+IE_FLOOR = 0.05  # internal energy, as a share of its peak, below which no ratio counts
 
 
 @dataclass
@@ -23,9 +24,13 @@ class EnergyLedger:
 
     Attributes:
         energy: kinetic, internal, friction, damping, external work and hourglass.
-        ke_ie_max: Largest kinetic over internal energy (from 5% of the load on).
-        hg_ie_max: Largest hourglass over internal energy (from 5% of the load on).
+        ke_ie_max: Largest kinetic over internal energy, from 5% of the load on and
+            where the internal energy is at least :data:`IE_FLOOR` of its largest so far
+            (a cycle that passes through zero strain, as the picture frame's, has no
+            internal energy to compare with there; the start of the load has none either).
+        hg_ie_max: Largest hourglass over internal energy (the same rows).
         balance_max: Largest absolute energy balance.
+        ie_peak: Largest internal energy so far [N mm].
     """
 
     energy: dict[str, float] = field(default_factory=lambda: dict.fromkeys(
@@ -33,6 +38,7 @@ class EnergyLedger:
     ke_ie_max: float = 0.0
     hg_ie_max: float = 0.0
     balance_max: float = 0.0
+    ie_peak: float = 0.0
     _pending: np.ndarray = field(default_factory=lambda: np.zeros(len(_KEYS)))
 
     def add(self, internal: float, external: float, friction: float, damping: float) -> None:
@@ -62,7 +68,8 @@ class EnergyLedger:
             e[key] += float(value)
         e["kinetic"], e["hourglass"] = float(total[4]), float(total[5])
         ie = e["internal"]
-        if load >= 0.05 and ie > 0:
+        self.ie_peak = max(self.ie_peak, ie)
+        if load >= 0.05 and ie > 0 and ie >= IE_FLOOR * self.ie_peak:
             self.ke_ie_max = max(self.ke_ie_max, e["kinetic"] / ie)
             self.hg_ie_max = max(self.hg_ie_max, e["hourglass"] / ie)
         self.balance_max = max(self.balance_max, abs(self.balance()))
@@ -74,11 +81,14 @@ class EnergyLedger:
 
     def state(self) -> tuple:
         """Copy of the ledger (a snapshot)."""
-        return (dict(self.energy), self.ke_ie_max, self.hg_ie_max, self.balance_max)
+        return (dict(self.energy), self.ke_ie_max, self.hg_ie_max, self.balance_max,
+                self.ie_peak)
 
     def set_state(self, state: tuple) -> None:
         """Return to a snapshot."""
-        energy, self.ke_ie_max, self.hg_ie_max, self.balance_max = state
+        energy, self.ke_ie_max, self.hg_ie_max, self.balance_max, *peak = state
+        # (a checkpoint written before the peak was kept has four entries)
+        self.ie_peak = peak[0] if peak else float(energy["internal"])
         self.energy = dict(energy)
         self._pending[:] = 0.0
 
