@@ -153,7 +153,7 @@ _ALL_DEFAULTS = (
     pytest.param("strip_bending", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
     pytest.param("sandwich_bending", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
     pytest.param("skin_sled", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
-    pytest.param("bias_extension", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
+    "bias_extension",
     "picture_frame",
 )
 
