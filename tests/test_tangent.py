@@ -14,6 +14,8 @@ below 1e-7 relative at the states below, so the agreement asked is 1e-6.
 
 from __future__ import annotations
 
+import zlib
+
 import numpy as np
 import pytest
 
@@ -106,7 +108,10 @@ def test_closed_tangent_equals_difference_tangent(name, measure, kind):
 
     The stresses of both evaluations are the same bits (one stress update code).
     """
-    rng = np.random.default_rng(abs(hash((name, kind, measure))) % 2**32)
+    # a seed of the case's own (hash() of strings changes with every process: one CI run
+    # in a few hundred met a state where the difference quotient, not the closed form,
+    # is off: 5e-5 at h = 1e-7, 5e-7 at h = 1e-8, the closed form's value as h -> 0)
+    rng = np.random.default_rng(zlib.crc32(f"{name}|{kind}|{measure}".encode()))
     material = MATERIALS[name](measure)
     cm = _states(kind, rng, measure)
     ep, evp = _history(material, cm)
