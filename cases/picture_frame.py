@@ -81,8 +81,6 @@ def build(p: Params) -> Job:
         raise InputError("--set shear_max_deg", f"must lie in (0, 80), got {p.shear_max_deg}")
     curve = ShearCurve.from_csv(p.curve) if p.curve else ShearCurve.default()
     fabric = NonCrimpFabric(thickness=p.thickness, fibre_angles_deg=(0.0, 90.0), shear=curve)
-    if p.programme not in ("smooth", "linear"):
-        raise InputError("--set programme", f"must be 'smooth' or 'linear', got {p.programme!r}")
     path = shear_programme(math.radians(p.shear_max_deg), p.programme == "smooth")
     mesh = box((p.side, p.side, p.thickness), tuple(p.cells))
     frame = tuple(AffineDisplacement("ply", side, lambda t: frame_gradient(path(t)),

@@ -122,7 +122,7 @@ def test_contact_damping_adds_a_viscous_pressure_only_while_touching():
 
     eps, c = 10.0, 0.5  # [N/mm^3], [MPa s/mm]
     coords = np.array([[0.0, 0, -0.01], [1.0, 0, -0.01], [2.0, 0, -0.01], [3.0, 0, 0.01]])
-    contact = NodalContact(Plane(), np.arange(4), coords, np.ones(4), eps, 0.0, None)
+    contact = NodalContact(Plane(), np.arange(4), coords, np.ones(4), eps, 0.0)
     u = np.zeros(12)
     v = np.array([[0, 0, -2.0], [0, 0, 0.1], [0, 0, 1.0], [0, 0, -50.0]])  # dg/dt = v_z
     damped = -contact.residual(u, np.zeros(3), (np.full(4, c), v))[:, 2].copy()

@@ -92,20 +92,8 @@ class InterfaceDamping:
     """
 
     zeta: float
-    v1: fem.Function
-    v2: fem.Function
-    a1: fem.Function
-    a2: fem.Function
-
-    @property
-    def velocities(self) -> tuple[fem.Function, fem.Function]:
-        """The two velocity functions, first body first."""
-        return self.v1, self.v2
-
-    @property
-    def areal(self) -> tuple[fem.Function, fem.Function]:
-        """The two areal-mass functions, first body first."""
-        return self.a1, self.a2
+    velocities: tuple[fem.Function, fem.Function]
+    areal: tuple[fem.Function, fem.Function]
 
 
 class InterfaceTerm:
@@ -287,8 +275,8 @@ class InterfaceTerm:
             on = area > 0
             a.x.array[on] = m[on] / area[on]
             areal.append(a)
-        return InterfaceDamping(zeta, fem.Function(self.first.V), fem.Function(self.second.V),
-                                areal[0], areal[1])
+        return InterfaceDamping(zeta, (fem.Function(self.first.V),
+                                       fem.Function(self.second.V)), tuple(areal))
 
     def damped_residuals(self, tests: dict, damping: InterfaceDamping) -> dict[str, ufl.Form]:
         """As :meth:`residuals`, with a viscous traction on the nodes' approach (explicit).

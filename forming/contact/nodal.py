@@ -41,13 +41,13 @@ class NodalContact:
         coords: (n, 3) reference coordinates of those nodes.
         area: (n,) reference surface area of each node (vertex rule) [mm^2].
         penalty: Normal penalty [N/mm^3].
-        friction: Coulomb coefficient (0: no tangential terms).
-        elastic_slip: Slip at full friction of the elastic-slip stick law [mm], or None
-            for the augmented stick law (stick penalty = ``penalty``).
+        friction: Coulomb coefficient (0: no tangential terms). A sticking node is held by
+            the normal penalty (explicit runs: a stick stiffness that follows a ringing
+            pressure ratchets the traction history down, docs/theory.md section 12).
     """
 
     def __init__(self, shape, nodes: np.ndarray, coords: np.ndarray, area: np.ndarray,
-                 penalty: float, friction: float, elastic_slip: float | None):
+                 penalty: float, friction: float):
         self.shape = shape
         self._tracker = shape.tracker()
         self.nodes = nodes
@@ -56,7 +56,6 @@ class NodalContact:
         self.area = area
         self.penalty = penalty
         self.friction = friction
-        self.elastic_slip = elastic_slip
         n = len(nodes)
         self.r = np.zeros((n, 3))  # residual at the nodes: minus area times traction
         self.r_old = np.zeros((n, 3))
@@ -90,9 +89,7 @@ class NodalContact:
             slip -= np.sum(slip * normal, axis=1)[:, None] * normal
             lam = self.lam_t - np.sum(self.lam_t * normal, axis=1)[:, None] * normal
             limit = self.friction * pressure
-            k_t = (self.penalty if self.elastic_slip is None
-                   else (limit / self.elastic_slip)[:, None])
-            trial = lam - k_t * slip
+            trial = lam - self.penalty * slip
             size = np.sqrt(np.sum(trial * trial, axis=1) + _TINY)
             scale = np.where(size <= limit + _SLACK, 1.0, limit / size)
             np.multiply(trial, scale[:, None], out=self.shear)

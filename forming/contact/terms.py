@@ -267,9 +267,7 @@ class ContactTerm:
         """The same contact evaluated node by node (:mod:`forming.contact.nodal`).
 
         Its friction history starts from this term's (:meth:`pull_nodal`). It holds a
-        sticking node with the penalty whatever ``stick`` says (explicit runs use it): the
-        traction is the history, and the elastic slip's stiffness ``mu p / s_el`` follows
-        a ringing pressure, which ratchets the traction down (docs/theory.md, section 12).
+        sticking node with the penalty whatever ``stick`` says (:class:`NodalContact`).
         """
         V = self.body.V
         nodes = fem.locate_dofs_topological(V, 2, self.body.domain.facets(self.spec.region))
@@ -281,7 +279,7 @@ class ContactTerm:
         # the nodes the rule integrates at (a tracked tool on a quadratic body: corners)
         nodes = nodes[area.x.array[3 * nodes] > 0.0]
         nc = NodalContact(self.tool.shape, nodes, V.tabulate_dof_coordinates()[nodes],
-                          area.x.array[3 * nodes], self.penalty, self.friction, None)
+                          area.x.array[3 * nodes], self.penalty, self.friction)
         if self.lam_t is not None:  # blocks of the shear function at the nodes
             Wv = self.lam_t.function_space
             blocks = np.full(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts, -1,

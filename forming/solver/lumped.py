@@ -160,7 +160,7 @@ def interface_terms(interfaces, states: dict[str, BodyState], tests: dict, emaps
             continue
         first, second = (states[b] for b in itf.bodies)
         damping = itf.damping(zeta, (first.m_phys, second.m_phys))
-        fills = [(damping.v1, first), (damping.v2, second)]
+        fills = list(zip(damping.velocities, (first, second), strict=True))
         out += [InterfaceSide(states[name], fem.form(r, entity_maps=emaps), fills)
                 for name, r in itf.damped_residuals(tests, damping).items()]
     return out
