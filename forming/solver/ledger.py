@@ -15,30 +15,37 @@ import numpy as np
 from mpi4py import MPI
 
 _KEYS = ("internal", "external", "friction", "damping")
-IE_FLOOR = 0.05  # internal energy, as a share of its peak, below which no ratio counts
+IE_FLOOR = 0.05  # internal energy, as a share of the run's largest, below which no ratio counts
+LOAD_FLOOR = 0.05  # load parameter below which no ratio counts
 
 
 @dataclass
 class EnergyLedger:
-    """Energies [N mm] over all ranks at the last interval's end, and running maxima.
+    """Energies [N mm] over all ranks at the last interval's end, and the ratios' rows.
+
+    The kinetic and hourglass energies are compared with the internal energy over "the
+    majority of the process" (the Abaqus guideline for quasi-static explicit runs): every
+    interval's end from :data:`LOAD_FLOOR` of the load on where the internal energy is at
+    least :data:`IE_FLOOR` of the largest the run has reached. Near the start of a load
+    the internal energy grows as the square of the load while the tools already move, so
+    the ratio there grows without bound however slowly the load goes (under the smooth
+    step it falls only as 1/T^2 with the loading time T); a cycle through zero strain,
+    as the picture frame's, has no internal energy to compare with either.
 
     Attributes:
         energy: kinetic, internal, friction, damping, external work and hourglass.
-        ke_ie_max: Largest kinetic over internal energy, from 5% of the load on and
-            where the internal energy is at least :data:`IE_FLOOR` of its largest so far
-            (a cycle that passes through zero strain, as the picture frame's, has no
-            internal energy to compare with there; the start of the load has none either).
-        hg_ie_max: Largest hourglass over internal energy (the same rows).
         balance_max: Largest absolute energy balance.
-        ie_peak: Largest internal energy so far [N mm].
+        rows: One row per interval's end: load parameter, kinetic, internal and hourglass
+            energy [N mm].
+        carried: Largest kinetic and hourglass ratios of a restart's earlier part when
+            its checkpoint kept no rows (written before rows were kept).
     """
 
     energy: dict[str, float] = field(default_factory=lambda: dict.fromkeys(
         ("kinetic", "internal", "friction", "damping", "external", "hourglass"), 0.0))
-    ke_ie_max: float = 0.0
-    hg_ie_max: float = 0.0
     balance_max: float = 0.0
-    ie_peak: float = 0.0
+    rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    carried: tuple[float, float] = (0.0, 0.0)
     _pending: np.ndarray = field(default_factory=lambda: np.zeros(len(_KEYS)))
 
     def add(self, internal: float, external: float, friction: float, damping: float) -> None:
@@ -51,7 +58,7 @@ class EnergyLedger:
 
     def close_interval(self, comm: MPI.Comm, kinetic: float, hourglass: float,
                        load: float) -> None:
-        """Sum the interval's works over ranks; record the energies and the maxima.
+        """Sum the interval's works over ranks; record the energies and the row.
 
         Args:
             comm: The model's communicator.
@@ -67,29 +74,47 @@ class EnergyLedger:
         for key, value in zip(_KEYS, total[:4], strict=True):
             e[key] += float(value)
         e["kinetic"], e["hourglass"] = float(total[4]), float(total[5])
-        ie = e["internal"]
-        self.ie_peak = max(self.ie_peak, ie)
-        if load >= 0.05 and ie > 0 and ie >= IE_FLOOR * self.ie_peak:
-            self.ke_ie_max = max(self.ke_ie_max, e["kinetic"] / ie)
-            self.hg_ie_max = max(self.hg_ie_max, e["hourglass"] / ie)
+        self.rows = np.vstack([self.rows, [load, e["kinetic"], e["internal"], e["hourglass"]]])
         self.balance_max = max(self.balance_max, abs(self.balance()))
+
+    def _ratio_max(self, column: int) -> float:
+        r = self.rows
+        ie = r[:, 2]
+        counted = (r[:, 0] >= LOAD_FLOOR) & (ie > 0) & (ie >= IE_FLOOR * ie.max(initial=0.0))
+        return float(np.max(r[counted, column] / ie[counted], initial=0.0))
+
+    @property
+    def ke_ie_max(self) -> float:
+        """Largest kinetic over internal energy over the counted rows (class docstring)."""
+        return max(self._ratio_max(1), self.carried[0])
+
+    @property
+    def hg_ie_max(self) -> float:
+        """Largest hourglass over internal energy over the counted rows."""
+        return max(self._ratio_max(3), self.carried[1])
 
     def balance(self) -> float:
         """Kinetic + internal + friction + damping - external work [N mm]."""
         e = self.energy
         return e["kinetic"] + e["internal"] + e["friction"] + e["damping"] - e["external"]
 
-    def state(self) -> tuple:
+    def state(self) -> dict:
         """Copy of the ledger (a snapshot)."""
-        return (dict(self.energy), self.ke_ie_max, self.hg_ie_max, self.balance_max,
-                self.ie_peak)
+        return {"energy": dict(self.energy), "balance_max": self.balance_max,
+                "rows": self.rows.copy(), "carried": list(self.carried)}
 
-    def set_state(self, state: tuple) -> None:
-        """Return to a snapshot."""
-        energy, self.ke_ie_max, self.hg_ie_max, self.balance_max, *peak = state
-        # (a checkpoint written before the peak was kept has four entries)
-        self.ie_peak = peak[0] if peak else float(energy["internal"])
-        self.energy = dict(energy)
+    def set_state(self, state: dict | tuple) -> None:
+        """Return to a snapshot (or to a checkpoint's tuple written before rows were kept)."""
+        if isinstance(state, dict):
+            self.energy = dict(state["energy"])
+            self.balance_max = float(state["balance_max"])
+            self.rows = np.asarray(state["rows"], dtype=float).reshape(-1, 4)
+            self.carried = (float(state["carried"][0]), float(state["carried"][1]))
+        else:  # (energy, ke_ie_max, hg_ie_max, balance_max[, ie_peak])
+            energy, ke, hg, self.balance_max, *_ = state
+            self.energy = dict(energy)
+            self.rows = np.zeros((0, 4))
+            self.carried = (float(ke), float(hg))
         self._pending[:] = 0.0
 
     def columns(self) -> dict[str, float]:
