@@ -149,10 +149,8 @@ def test_several_bodies_balance_energy_and_flag_dynamics(tmp_path):
 _CHEAP_DEFAULTS = ("core_compression", "core_tension", "core_shear")
 _OPEN = "issue 16: not yet quasi-static with its default loading time (docs/validation.md)"
 _ALL_DEFAULTS = (
-    "core_crushing", "hemisphere",
-    pytest.param("strip_bending", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
+    "core_crushing", "hemisphere", "strip_bending", "skin_sled",
     pytest.param("sandwich_bending", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
-    pytest.param("skin_sled", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
     "bias_extension",
     "picture_frame",
 )

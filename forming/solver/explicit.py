@@ -76,6 +76,11 @@ class ExplicitSolver:
         bcs = {n: [bc for bc, b in zip(model.dirichlet.bcs, model.dirichlet.bc_bodies,
                                        strict=True) if b == n] for n in model.names}
         self.states = [BodyState(n, model.bodies[n], bcs[n]) for n in model.names]
+        if unknown := set(opts.damped_bodies) - set(model.names):
+            raise InputError("explicit.damped_bodies", f"names no body of the scene: "
+                             f"{sorted(unknown)} (its bodies: {', '.join(model.names)})")
+        self._alpha = {n: opts.damping if not opts.damped_bodies or n in opts.damped_bodies
+                       else 0.0 for n in model.names}
         by_name = {st.name: st for st in self.states}
         tests = model.test_functions()
         emaps = model.entity_maps or None
@@ -139,7 +144,6 @@ class ExplicitSolver:
                  int(opts.loading_time / self.dt) + 1, 100 * self.mass_added_fraction,
                  opts.integration)
 
-    # -- time step ------------------------------------------------------------------------
     def _time_step(self) -> float:
         """The stable time step now (collective); the damping time follows it."""
         dt = self._bound.time_step()
@@ -193,8 +197,8 @@ class ExplicitSolver:
         """Acceleration a = -R / m - alpha v, zero where the motion is prescribed."""
         np.divide(st.f_all.x.array, st.m, out=st.a)
         np.negative(st.a, out=st.a)
-        if self.options.damping > 0:
-            st.a -= self.options.damping * st.v
+        if (alpha := self._alpha[st.name]) > 0:
+            st.a -= alpha * st.v
         st.a[st.fixed] = 0.0
 
     def _increment(self, dt: float) -> None:
@@ -244,8 +248,8 @@ class ExplicitSolver:
             w_ext -= 0.5 * float(r[free] @ d[free])
             fixed = st.fixed[:n]
             w_ext += 0.5 * float(st.m[:n][fixed] @ (st.v[:n][fixed] ** 2 - v0[:n][fixed] ** 2))
-            if self.options.damping > 0:  # the damping force alpha m v did work on the nodes
-                w_damp += self.options.damping * float((st.m[:n] * v0[:n])[free] @ d[free])
+            if (alpha := self._alpha[st.name]) > 0:  # the force alpha m v did work on them
+                w_damp += alpha * float((st.m[:n] * v0[:n])[free] @ d[free])
         for term in self._sides:
             on_bodies -= 0.5 * float((term.r_old + term.r_new) @ du[term.state.name])
         for term in self._viscous:  # dissipated, and in R: -R . d is short of it

@@ -109,6 +109,11 @@ class ExplicitOptions:
             mass added until it reaches this value [s] (reported as
             ``mass_added_fraction``); None: no mass scaling.
         damping: Mass-proportional damping coefficient alpha [1/s] (``a += -alpha v``).
+        damped_bodies: The bodies the mass-proportional damping acts on (Abaqus defines
+            Rayleigh damping per material); empty: every body. A body held in place
+            (a core on its support) moves only as it deforms, so damping it leaves a
+            quasi-static answer alone while it stops the body ringing; a body that
+            travels (a skin dragged along) would be held back by it.
         fibre_damping: Fraction of critical damping of the fabric fibres' highest mode
             (stiffness-proportional viscosity along the fibres; the linear bulk viscosity
             of Abaqus/Explicit damps solids at 0.06 in the same way); lower modes are
@@ -143,6 +148,7 @@ class ExplicitOptions:
     safety: float = 0.9
     target_time_step: float | None = None
     damping: float = 0.0
+    damped_bodies: tuple[str, ...] = ()
     fibre_damping: float = 0.06
     contact_damping: float = 0.2
     output_interval: float | None = None
