@@ -228,3 +228,15 @@ def test_quadratic_block_under_a_frictional_tool(tmp_path):
     assert force == pytest.approx(linear["force_plate_z_N"][-1], rel=0.02)
     assert force == pytest.approx(e * side**2 * press / height, rel=0.1)
     assert quadratic["reaction_bottom_z_N"][-1] == pytest.approx(force, rel=0.01)
+
+
+def test_bound_every_is_a_share_of_the_load():
+    """``explicit.bound_every`` outside [0, 1] is refused with the field named (a negative
+    span would bound at every interval silently, one above 1 never after the start)."""
+    from forming.errors import InputError
+    from forming.solver.options import ExplicitOptions
+
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(InputError, match="explicit.bound_every"):
+            ExplicitOptions(bound_every=bad)
+    assert ExplicitOptions(bound_every=0.0).bound_every == 0.0

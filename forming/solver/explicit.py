@@ -136,13 +136,13 @@ class ExplicitSolver:
         self.dt = math.inf  # no time step yet: a self-contact's penalty is 0 at rest
         self._assemble_forces()  # forces at rest (e.g. a preload) give a_0
         self.dt = self._dt_ref = self._time_step()
-        self._omega2_ref = self._omega2_now = self._omega2()
+        self._omega2_ref = self._omega2_now = comm.allreduce(self._local_omega2(), op=MPI.MAX)
+        self._s_bound = 0.0  # load parameter of the last Gershgorin bound
         for st in self.states:
             self._accelerate(st)
-        log.info("explicit: stable time step %.3g s, about %d increments, mass added %.3g%%, "
-                 "%s integration of hexahedral solids", self.dt,
-                 int(opts.loading_time / self.dt) + 1, 100 * self.mass_added_fraction,
-                 opts.integration)
+        log.info("explicit: stable time step %.3g s, about %d increments, mass added %.3g%%, %s"
+                 " integration of hexahedral solids", self.dt, int(opts.loading_time / self.dt)
+                 + 1, 100 * self.mass_added_fraction, opts.integration)
 
     def _time_step(self) -> float:
         """The stable time step now (collective); the damping time follows it."""
@@ -154,10 +154,6 @@ class ExplicitSolver:
     def _local_omega2(self) -> float:
         """The largest element frequency bound of this rank's element loops [1/s^2]."""
         return max((loop.omega2 for loop in self._loop_list), default=0.0)
-
-    def _omega2(self) -> float:
-        """The largest element frequency bound over all ranks (collective)."""
-        return self.comm.allreduce(self._local_omega2(), op=MPI.MAX)
 
     def _follow_stiffening(self, omega2: float) -> None:
         """Shorten the time step as the stiffest element stiffens (crushing, compression).
@@ -318,11 +314,12 @@ class ExplicitSolver:
         reason = ""
         ok = True
         try:
-            if self.time_steps:  # the constructor evaluated the bound at the start
+            s_start = self.options.load(self.tau)
+            if self.time_steps and s_start >= self._s_bound + self.options.bound_every - 1e-9:
                 # the Gershgorin bound reads the body's plastic state, which the last
-                # interval's end (or a restore) handed over
+                # interval's end (or a restore) handed over; the constructor's is the first
                 self.dt = self._dt_ref = self._time_step()
-                self._omega2_ref = self._omega2_now
+                self._omega2_ref, self._s_bound = self._omega2_now, s_start
             for outside in self._outside:
                 outside.start_interval()
             while self.tau < tau_end * (1 - 1e-12):
@@ -351,7 +348,8 @@ class ExplicitSolver:
         ok = self.comm.allreduce(ok, op=MPI.LAND)
         if ok:
             self._push()
-            self._omega2_now = self._omega2()  # the stiffest element at the interval's end
+            # the stiffest element at the interval's end
+            self._omega2_now = self.comm.allreduce(self._local_omega2(), op=MPI.MAX)
             self.ledger.close_interval(self.comm, self._kinetic(), self._hourglass(),
                                        self._s_end)
             for v in self._impulse.values():
@@ -373,14 +371,16 @@ class ExplicitSolver:
                 [t.vec.x.array.copy() for t in self._terms],
                 [t.residual_vector() for t in self._tools],
                 [loop.state() for loop in self._loop_list],
-                self.tau, self.ledger.state(), self.time_steps, self.dt, self._dt_ref,
-                self._omega2_ref, self._omega2_now,
+                self.tau, self.ledger.state(), self.time_steps, self.dt,
+                [self._dt_ref, self._s_bound], self._omega2_ref, self._omega2_now,
                 [t.pair_state_vector() for t in self._selves])
 
     def restore(self, snap: tuple) -> None:
         """Return velocities, energies and time to a snapshot; history from the model."""
-        (states, terms, tools, loops, self.tau, ledger, self.time_steps, self.dt, self._dt_ref,
+        (states, terms, tools, loops, self.tau, ledger, self.time_steps, self.dt, ref,
          self._omega2_ref, self._omega2_now, pair_states) = snap
+        # (a checkpoint written before bound_every kept the step alone: bound at once)
+        self._dt_ref, self._s_bound = ref if isinstance(ref, list | tuple) else (ref, -1.0)
         for t, arr in zip(self._selves, pair_states, strict=True):
             t.set_pair_state_vector(arr)
         self.ledger.set_state(ledger)

@@ -124,9 +124,11 @@ class ExplicitOptions:
             viscous pressure ``-c dg/dt`` joins the penalty's while the node touches.
             Undamped, light skin nodes chatter on their penalty springs and lose their
             friction history at every opening. 0: none.
-        output_interval: Load-parameter interval between history rows (the stable time
-            step is re-evaluated at each); None: the job's largest load step, at most
-            0.02.
+        output_interval: Load-parameter interval between history rows; None: the job's
+            largest load step, at most 0.02.
+        bound_every: Load-parameter span between two Gershgorin bounds of the stable
+            time step (each at the start of an output interval; 0: at every interval).
+            In between the step only shrinks, as the stiffest solid element stiffens.
         quasi_static_limit: Largest kinetic over internal energy of a run that counts as
             quasi-static (5%, the usual guideline for Abaqus/Explicit forming).
         integration: Solids on hexahedra: ``"full"`` (2 x 2 x 2 points, as the implicit
@@ -152,6 +154,7 @@ class ExplicitOptions:
     fibre_damping: float = 0.06
     contact_damping: float = 0.2
     output_interval: float | None = None
+    bound_every: float = 0.1
     quasi_static_limit: float = 0.05
     integration: Literal["full", "reduced"] = "full"
     hourglass: float = 0.1
@@ -188,6 +191,9 @@ class ExplicitOptions:
         if not (math.isfinite(self.contact_damping) and 0 <= self.contact_damping < 1):
             raise InputError("explicit.contact_damping",
                              f"must lie in [0, 1), got {self.contact_damping!r}")
+        if not (math.isfinite(self.bound_every) and 0 <= self.bound_every <= 1):
+            raise InputError("explicit.bound_every",
+                             f"must lie in [0, 1], got {self.bound_every!r}")
         iv = self.output_interval
         if iv is not None and not 0 < iv <= 1:
             raise InputError("explicit.output_interval", f"must lie in (0, 1], got {iv!r}")

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 from dolfinx import fem  # noqa: I001
-from dolfinx.fem.petsc import assemble_matrix
+from dolfinx.fem.petsc import assemble_matrix, create_matrix
 from mpi4py import MPI
 
 from forming import compat  # noqa: F401
@@ -53,6 +53,9 @@ class StableStep:
             pen = sum(terms[1:], terms[0]) if terms else None
             self._forms.append((fem.form(jac[i][i], entity_maps=maps),
                                 None if pen is None else fem.form(pen, entity_maps=maps)))
+        # one matrix per body, its sparsity built once and refilled at every bound
+        self._mats = [create_matrix(jac_form) for jac_form, _pen in self._forms]
+        self._f = [fem.Function(st.body.V) for st in states]
 
     def row_sums(self) -> list[np.ndarray]:
         """Per body, the absolute row sums of its tangent plus every contact penalty.
@@ -60,17 +63,18 @@ class StableStep:
         ``2 / sqrt(row_i / m_i)`` bounds the stable time step of node i from below.
         """
         sums = []
-        for st, (jac, pen) in zip(self.states, self._forms, strict=True):
+        for st, (jac, pen), A, f in zip(self.states, self._forms, self._mats, self._f,
+                                        strict=True):
             st.body.invalidate()
             # elastic unloading is the stiffest response: plastic state frozen
             st.body.update_material(want_tangent=True, frozen=True)
-            A = assemble_matrix(jac)
+            A.zeroEntries()
+            assemble_matrix(A, jac)
             A.assemble()
             indptr, _cols, data = A.getValuesCSR()
             rows = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
             local = np.bincount(rows, weights=np.abs(data), minlength=len(indptr) - 1)
-            A.destroy()
-            f = fem.Function(st.body.V)
+            f.x.array[:] = 0.0
             f.x.array[: st.n_owned] = local
             f.x.scatter_forward()
             total = f.x.array.copy()
