@@ -110,8 +110,8 @@ def build(p: Params) -> Job:
                pictures=lambda model, out: post.shear_angle_picture(
                    model, out, f"Bias extension: shear angle, d = {stroke:.1f} mm"),
                # the pulled half moves at the clamp's speed against the soft shear's
-               # internal energy: kinetic 46% of internal at 0.05 s, 2.9% at 0.2 s
-               # (docs/theory.md, section 12)
+               # internal energy: kinetic 46% of internal at 0.05 s (the rule before
+               # 2026-11-26), 0.31% at 0.2 s (docs/theory.md, section 12)
                explicit=ExplicitOptions(loading_time=0.2))
 
 

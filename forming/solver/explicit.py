@@ -158,7 +158,7 @@ class ExplicitSolver:
     def _follow_stiffening(self, omega2: float) -> None:
         """Shorten the time step as the stiffest element stiffens (crushing, compression).
 
-        Between the Gershgorin bounds at the output intervals, the element loops track
+        Between two Gershgorin bounds (``bound_every``), the element loops track
         the Flanagan-Belytschko frequency bound of every element in its current shape;
         the step shrinks with the square root of its growth since the last bound.
         """

@@ -4,8 +4,9 @@ The bound is Gershgorin's on the assembled system: the largest eigenvalue of
 ``M^-1 K`` is at most ``max_i sum_j |K_ij| / m_i``, with K the stiffest tangent each
 body may reach soon (:meth:`stability_jacobian`: elastic unloading of a solid, its
 plastic state frozen; a fabric's fibres taut) plus every contact penalty a node may
-meet, open or not. It is evaluated at the start and at every output
-interval; between them the explicit solver follows the stiffest element
+meet, open or not. It is evaluated at the start and then at the start of an output
+interval at most every ``explicit.bound_every`` of the load; between two bounds the
+explicit solver shortens the step as the stiffest element stiffens
 (:meth:`forming.solver.explicit.ExplicitSolver`).
 """
 
@@ -74,8 +75,7 @@ class StableStep:
             indptr, _cols, data = A.getValuesCSR()
             rows = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
             local = np.bincount(rows, weights=np.abs(data), minlength=len(indptr) - 1)
-            f.x.array[:] = 0.0
-            f.x.array[: st.n_owned] = local
+            f.x.array[: st.n_owned] = local  # the ghosts come from the scatter
             f.x.scatter_forward()
             total = f.x.array.copy()
             if pen is not None:
