@@ -7,7 +7,14 @@ import pytest
 from helpers import block_taylor, punch_footprint_force
 
 from forming.case import run_case
-from forming.contact.shapes import NUMPY, AnnularPlate, HemisphericalPunch, Plane, RoundedBox
+from forming.contact.shapes import (
+    NUMPY,
+    AnnularPlate,
+    HemisphericalPunch,
+    Plane,
+    Roller,
+    RoundedBox,
+)
 from forming.job import Job
 from forming.materials import ElasticSolid, IsotropicElasticity
 from forming.materials.curves import CompressionCurve
@@ -23,6 +30,66 @@ from forming.solver.stepping import StepControl
 
 def _history(path):
     return np.genfromtxt(path / "history.csv", delimiter=",", names=True)
+
+
+@pytest.mark.parametrize("shape", [
+    Plane(point=(0.0, 0.0, 1.0), normal=(0.3, 0.0, 1.0)),
+    HemisphericalPunch(tip=(1.0, 2.0, 0.5), radius=20.0),
+    Roller(center=(0.0, 0.0, -10.0), radius=10.0),
+    RoundedBox(center=(0.0, 0.0, 20.0), half_size=(10.0, 15.0, 20.0), radius=4.0),
+    AnnularPlate(center=(0.0, 0.0, 0.0), hole_radius=12.0, edge_radius=3.0, side=-1),
+], ids=lambda s: type(s).__name__)
+def test_compiled_nodal_contact_is_the_numpy_one(shape):
+    """The explicit solver's compiled tool contact equals its NumPy form (1e-12).
+
+    Nodes scattered around the tool's surface, with a frictional history, a moving
+    tool and normal damping: the compiled loop (``add_residual`` of an analytic shape)
+    must give the residual, shear traction and body residual of the vectorised NumPy
+    evaluation (:meth:`NodalContact.residual`), and commit the same history. A failure
+    means a shape's distance in :mod:`forming.contact.nodalkernels` no longer matches
+    its formula in :mod:`forming.contact.shapes`, or the friction return differs.
+    """
+    from forming.contact.nodal import NodalContact
+
+    rng = np.random.default_rng(4)
+    n = 400
+    pts = rng.uniform(-30.0, 30.0, size=(n, 3))
+    gap = np.asarray(shape.distance(pts.T, NUMPY))
+    coords = pts - (gap + rng.uniform(-0.05, 0.05, n))[:, None] * shape.gap_normal(pts)[1]
+    nodes = rng.permutation(n + 10)[:n]
+    area = rng.uniform(0.5, 2.0, n)
+    offset = np.array([0.01, -0.02, -0.03])
+    u = rng.normal(scale=0.01, size=3 * (n + 10))
+    v = rng.normal(scale=1.0, size=3 * (n + 10))
+    damp = rng.uniform(0.0, 2.0, n)
+    w = np.array([0.0, 0.0, -1.0])
+
+    def contact():
+        c = NodalContact(shape, nodes, coords, area, 5.0, 0.3)
+        c.lam_t[:] = rng2.normal(scale=0.02, size=(n, 3))
+        c.u_prev[:] = u.reshape(-1, 3)[nodes] - rng2.normal(scale=0.002, size=(n, 3))
+        c.offset_prev[:] = offset - 0.001
+        c.r[:] = 1.0
+        return c
+
+    rng2 = np.random.default_rng(5)
+    numpy_path = contact()
+    rng2 = np.random.default_rng(5)
+    compiled = contact()
+    f_np = np.zeros_like(u)
+    f_np[numpy_path.dofs] += numpy_path.residual(
+        u, offset, (damp, v.reshape(-1, 3)[nodes] - w)).ravel()
+    f_c = np.zeros_like(u)
+    compiled.add_residual(u, offset, f_c, (damp, v, w))
+    scale = np.abs(numpy_path.r).max()
+    assert scale > 0.0 and np.count_nonzero(numpy_path.r[:, 2]) > 20
+    np.testing.assert_allclose(compiled.r, numpy_path.r, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(compiled.shear, numpy_path.shear, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(compiled.r_old, numpy_path.r_old)
+    np.testing.assert_allclose(f_c, f_np, rtol=0, atol=1e-12 * scale)
+    compiled.commit(u, offset)
+    np.testing.assert_array_equal(compiled.u_prev, u.reshape(-1, 3)[nodes])
+    np.testing.assert_array_equal(compiled.lam_t, compiled.shear)
 
 
 def test_shape_distances():

@@ -7,7 +7,9 @@ over the region's owned nodes, without assembling a form: the gap and the normal
 from the tool's ``gap_normal`` (a difference of an analytic distance, or the closest
 point on a surface mesh), the
 pressure is the penalty's (the explicit solver leaves the multipliers at zero), and the
-friction is the same Coulomb return with the same stick law. Its frictional history
+friction is the same Coulomb return with the same stick law. For an analytic tool the
+increment's evaluation (:meth:`NodalContact.add_residual`) is one compiled loop over the
+nodes (:mod:`forming.contact.nodalkernels`). Its frictional history
 (the shear traction and the slip reference) lives in arrays here during a run, and is
 written back to the contact's functions (:meth:`push`) for outputs and snapshots.
 """
@@ -15,6 +17,9 @@ written back to the contact's functions (:meth:`push`) for outputs and snapshots
 from __future__ import annotations
 
 import numpy as np
+
+from forming.contact import nodalkernels
+from forming.contact.shapes import AnalyticShape
 
 _TINY = 1e-30
 _SLACK = 1e-12  # stick test slack [MPa], as the forms
@@ -63,6 +68,8 @@ class NodalContact:
         self.lam_t = np.zeros((n, 3))  # converged shear traction
         self.u_prev = np.zeros((n, 3))  # slip reference: displacement at the last commit
         self.offset_prev = np.zeros(3)
+        # the compiled loop's code and parameters of an analytic shape (None: NumPy)
+        self._code = shape.kernel_code() if isinstance(shape, AnalyticShape) else None
 
     def residual(self, u: np.ndarray, offset: np.ndarray,
                  damping: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
@@ -97,6 +104,31 @@ class NodalContact:
         np.multiply(traction, -self.area[:, None], out=self.r)
         return self.r
 
+    def add_residual(self, u: np.ndarray, offset: np.ndarray, f_all: np.ndarray,
+                     damping: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
+        """Evaluate as :meth:`residual` and add the result to a body's residual array.
+
+        Args:
+            u: The body's displacement array (3 per node).
+            offset: The tool's current displacement [mm].
+            f_all: The body's residual array (entries of the nodes' dofs grow).
+            damping: ``(c, v, w)``: the normal damping [MPa s/mm] per node, the body's
+                velocity array and the tool's velocity [mm/s]; None: undamped.
+        """
+        if self._code is None:
+            v_rel = None
+            if damping is not None:
+                c, v, w = damping
+                v_rel = (c, v.reshape(-1, 3)[self.nodes] - w)
+            f_all[self.dofs] += self.residual(u, offset, v_rel).ravel()
+            return
+        kind, q = self._code
+        c, v, w = damping if damping is not None else nodalkernels.no_damping()
+        nodalkernels.contact_residual(kind, q, u, self.nodes, self.coords, self.area,
+                                      np.asarray(offset, dtype=float), self.penalty,
+                                      self.friction, c, v, w, self.lam_t, self.u_prev,
+                                      self.offset_prev, self.shear, self.r, self.r_old, f_all)
+
     def repair(self) -> None:
         """Search a surface-mesh tool's tree again at the next evaluation."""
         self._tracker.repair()
@@ -104,8 +136,7 @@ class NodalContact:
     def commit(self, u: np.ndarray, offset: np.ndarray) -> None:
         """Accept the increment: the shear becomes history, slip is measured from here."""
         if self.friction > 0.0:
-            self.lam_t[:] = self.shear
-            self.u_prev[:] = u.reshape(-1, 3)[self.nodes]
+            nodalkernels.commit_slip(u, self.nodes, self.shear, self.lam_t, self.u_prev)
             self.offset_prev[:] = offset
 
     def force_on_tool(self) -> np.ndarray:

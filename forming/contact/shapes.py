@@ -15,6 +15,7 @@ from typing import ClassVar
 import numpy as np
 import ufl
 
+from forming.contact import nodalkernels
 from forming.errors import InputError
 
 UFL = SimpleNamespace(sqrt=ufl.sqrt, max=ufl.max_value, min=ufl.min_value)
@@ -66,6 +67,10 @@ class AnalyticShape:
     def repair(self) -> None:
         """Nothing to search again."""
 
+    def kernel_code(self) -> tuple[int, np.ndarray]:
+        """The shape's code and parameters in :mod:`forming.contact.nodalkernels`."""
+        raise NotImplementedError
+
 
 @dataclass(frozen=True)
 class Plane(AnalyticShape):
@@ -83,6 +88,11 @@ class Plane(AnalyticShape):
         n = np.asarray(self.normal, dtype=float)
         n = n / np.linalg.norm(n)
         return sum(n[i] * (p[i] - self.point[i]) for i in range(3))
+
+    def kernel_code(self) -> tuple[int, np.ndarray]:
+        """Code and parameters: the unit normal, the point."""
+        n = np.asarray(self.normal, dtype=float)
+        return nodalkernels.PLANE, np.concatenate([n / np.linalg.norm(n), self.point])
 
 
 @dataclass(frozen=True)
@@ -115,6 +125,11 @@ class HemisphericalPunch(AnalyticShape):
         return _norm3(xp, p[0] - self.tip[0], p[1] - self.tip[1], p[2] - (zc + s * t)) - \
             self.radius
 
+    def kernel_code(self) -> tuple[int, np.ndarray]:
+        """Code and parameters: the tip, radius, length, minus the direction."""
+        return nodalkernels.PUNCH, np.array([*self.tip, self.radius, self.length,
+                                             -self.direction], dtype=float)
+
 
 @dataclass(frozen=True)
 class Roller(AnalyticShape):
@@ -135,6 +150,11 @@ class Roller(AnalyticShape):
         """Signed distance of points ``p``."""
         return _norm3(xp, p[0] - self.center[0], 0.0 * p[1], p[2] - self.center[2]) - \
             self.radius
+
+    def kernel_code(self) -> tuple[int, np.ndarray]:
+        """Code and parameters: the axis' x and z, the radius."""
+        return nodalkernels.ROLLER, np.array([self.center[0], self.center[2], self.radius],
+                                             dtype=float)
 
 
 @dataclass(frozen=True)
@@ -164,6 +184,11 @@ class RoundedBox(AnalyticShape):
         outside = _norm3(xp, xp.max(q[0], 0.0), xp.max(q[1], 0.0), xp.max(q[2], 0.0))
         inside = xp.min(xp.max(q[0], xp.max(q[1], q[2])), 0.0)
         return outside + inside - self.radius
+
+    def kernel_code(self) -> tuple[int, np.ndarray]:
+        """Code and parameters: the centre, the half sizes, the radius."""
+        return nodalkernels.BOX, np.array([*self.center, *self.half_size, self.radius],
+                                          dtype=float)
 
 
 @dataclass(frozen=True)
@@ -206,6 +231,12 @@ class AnnularPlate(AnalyticShape):
         outside = xp.sqrt(xp.max(-a, 0.0) ** 2 + xp.max(-m, 0.0) ** 2 + _EPS2)
         inside = xp.min(xp.max(-a, -m), 0.0)
         return outside + inside - r
+
+    def kernel_code(self) -> tuple[int, np.ndarray]:
+        """Code and parameters: the centre, hole and edge radii, side, thickness."""
+        return nodalkernels.ANNULAR, np.array([*self.center, self.hole_radius,
+                                               self.edge_radius, self.side, self.thickness],
+                                              dtype=float)
 
 
 Shape = Plane | HemisphericalPunch | Roller | RoundedBox | AnnularPlate

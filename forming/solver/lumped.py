@@ -212,15 +212,13 @@ class ToolTerm:
             dt: The increment just taken (the tool's and the nodes' velocities over it
                 damp the normal approach); None: no damping (the state at rest).
         """
-        u = self.state.body.u.x.array
         offset = self.contact.tool_offset()
         rate = None
         if self.damping is not None and dt:
-            v = self.state.v.reshape(-1, 3)[self.nodal.nodes] - (offset - self._offset) / dt
-            rate = (self.damping, v)
+            rate = (self.damping, self.state.v, (offset - self._offset) / dt)
         self._offset = offset
-        r = self.nodal.residual(u, offset, rate)
-        self.state.f_all.x.array[self.dofs] += r.ravel()
+        self.nodal.add_residual(self.state.body.u.x.array, offset, self.state.f_all.x.array,
+                                rate)
 
     def work_on_body(self, du: np.ndarray) -> float:
         """Work of the contact forces on the body over the increment [N mm] (this rank).
