@@ -326,6 +326,100 @@ def test_return_mapping_survives_large_random_jumps():
         assert np.all(np.isfinite(r.S)) and np.all(np.isfinite(r.D))
 
 
+def _trial_returns(elasticity: str, n: int):
+    """Plastic trial states of random jumps from a crushed state, with their kernel data.
+
+    Yields ``(f_tr, tol, c_eig, k_fac, t_tr, evp_n, bound data, kernel data)`` for each
+    point whose trial is outside the yield surface.
+    """
+    from forming.materials.kernels.curve import hermite_eval
+    from forming.materials.kernels.drivers import _hermite_slope_bound
+    from forming.materials.kernels.foam import _foam_trial, _foam_yield
+    from forming.materials.kernels.foam_bound import _phi_bound_data
+    from forming.materials.kernels.mandel import _mul6
+
+    foam = honeycomb_core(elasticity)
+    k = foam.kernel_data()
+    rng = np.random.default_rng(3)
+    f0 = np.eye(3) + rng.normal(scale=0.15, size=(n, 3, 3))
+    f0 = f0[np.linalg.det(f0) > 0.05]
+    r0 = evaluate(foam, np.einsum("nki,nkj->nij", f0, f0).reshape(-1, 9), want_tangent=False)
+    jump = np.eye(3) + rng.normal(scale=0.01, size=f0.shape)
+    f1 = jump @ f0
+    c1 = np.einsum("nki,nkj->nij", f1, f1)
+    rot, cr, c_eig = np.zeros((6, 6)), np.zeros((6, 6)), np.zeros((6, 6))
+    alpha, pt, visc = k.props
+    for i in range(len(c1)):
+        w, q = np.linalg.eigh(c1[i])
+        ok, _s, k_fac, _e, t_tr = _foam_trial(tuple(w), np.ascontiguousarray(q),
+                                              tuple(r0.ep[i]), k.cel, k.measure, rot, cr, c_eig)
+        pc_n = hermite_eval(r0.evp[i], k.xs, k.ys, k.ds)[0]
+        f_tr = _foam_yield(_mul6(k_fac, t_tr), pc_n, pt, alpha)
+        scale = pc_n + pt
+        if ok and f_tr > 1e-12 * scale:
+            bound = _phi_bound_data(f_tr, c_eig, k_fac, t_tr, scale, r0.evp[i],
+                                    _hermite_slope_bound(k.xs, k.ys, k.ds), alpha, visc)
+            yield f_tr, 1e-13 * scale, c_eig.copy(), k_fac, t_tr, r0.evp[i], bound, k
+
+
+@pytest.mark.parametrize("elasticity", ["transverse", "isotropic"])
+def test_newton_return_finds_the_bracketed_root(elasticity):
+    """The Newton return and the bracketing return find the same root to 1e-9.
+
+    The stress update tries Newton's method first (:func:`_return_newton`) and brackets
+    (:func:`_return_mapping`) only when it fails. On 400 random plastic trial states
+    Newton must converge on at least 98% and land on the root the bracketing finds
+    (relative difference of ``mu`` below 1e-9; both stop at ``|phi| < 1e-13`` of the
+    strength). A failure means the slope of ``phi`` is wrong (Newton then stalls or
+    walks to another root) or Newton gives up where it should not.
+    """
+    from forming.materials.kernels.foam import _return_mapping, _return_newton
+
+    lu = np.zeros((6, 10))
+    tried = converged = 0
+    for f_tr, tol, c_eig, k_fac, t_tr, evp_n, bound, k in _trial_returns(elasticity, 400):
+        alpha, pt, visc = k.props
+        ok_b, mu_b, _t, _s = _return_mapping(f_tr, tol, bound, c_eig, k_fac, t_tr, lu, evp_n,
+                                             k.xs, k.ys, k.ds, pt, alpha, visc)
+        ok_n, mu_n, _t, _s = _return_newton(f_tr, tol, c_eig, k_fac, t_tr, lu, evp_n, k.xs,
+                                            k.ys, k.ds, pt, alpha, visc)
+        assert ok_b
+        tried += 1
+        if ok_n:
+            converged += 1
+            assert mu_n == pytest.approx(mu_b, rel=1e-9)
+    assert tried > 100
+    assert converged >= 0.98 * tried
+
+
+def test_return_slope_is_the_derivative_of_the_yield_value():
+    """The slope of ``phi(mu)`` that Newton uses equals a central difference (1e-6).
+
+    Checked at the trial's first Newton point on random plastic states, with and
+    without viscous regularisation. A failure means Newton's slope is wrong: the return
+    then takes more steps, or falls back to bracketing.
+    """
+    from forming.materials.kernels.foam import _rm_phi_slope
+    from forming.materials.kernels.mandel import _mul6, _mv6
+
+    lu = np.zeros((6, 10))
+    checked = 0
+    for f_tr, _tol, c_eig, k_fac, t_tr, evp_n, _b, k in _trial_returns("transverse", 60):
+        alpha, pt, _visc = k.props
+        mt = _mv6(c_eig, _mul6(k_fac, t_tr))
+        mu = 0.5 * f_tr / -_rm_phi_slope(0.0, c_eig, k_fac, t_tr, mt, lu, evp_n, k.xs, k.ys,
+                                         k.ds, pt, alpha, 0.0)[1]
+        data = (c_eig, k_fac, t_tr, mt, lu, evp_n, k.xs, k.ys, k.ds, pt, alpha)
+        for visc in (0.0, 3.0 / mu):
+            h = 1e-6 * mu
+            slope = _rm_phi_slope(mu, *data, visc)[1]
+            diff = (_rm_phi_slope(mu + h, *data, visc)[0]
+                    - _rm_phi_slope(mu - h, *data, visc)[0]) / (2 * h)
+            assert slope == pytest.approx(diff, rel=1e-6, abs=1e-9 * abs(f_tr) / mu)
+            checked += 1
+    assert checked > 20
+
+
 def test_inverted_point_is_reported():
     foam = honeycomb_core()
     r = evaluate(foam, np.diag([1.0, 1.0, -0.1]).reshape(1, 9))

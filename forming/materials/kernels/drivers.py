@@ -46,7 +46,7 @@ def _new_work():
     return (np.empty((_BATCH, 3, 3)), np.empty((_BATCH, 3, 3)), np.empty((_BATCH, 3, 3)),
             np.empty(_BATCH, dtype=np.bool_), np.empty(_BATCH, dtype=np.bool_),
             np.empty((_BATCH, 2)), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)),
-            np.empty((6, 7)), np.empty((_NUPD, 6)), np.empty(_NUPD, dtype=np.bool_))
+            np.empty((6, 10)), np.empty((_NUPD, 6)), np.empty(_NUPD, dtype=np.bool_))
 
 
 @numba.njit(cache=True)

@@ -2,8 +2,10 @@
 
 The yield function (:func:`_foam_yield`) is written in the rotated Cauchy stress;
 the flow is radial in it, so for a return of size ``mu`` the stress follows from one
-6x6 linear solve (:func:`_rm_phi`). :func:`_return_mapping` finds the smallest root
-``mu`` by geometric bracketing and Illinois regula falsi, and :func:`_foam_update`
+6x6 linear solve (:func:`_rm_phi`). :func:`_return_newton` finds the root ``mu`` by
+Newton's method in a bracket (the slope from a second solve, :func:`_rm_phi_slope`);
+should it fail, :func:`_return_mapping` brackets the smallest root geometrically and
+closes in by Illinois regula falsi. :func:`_foam_update`
 is the whole update at one point: elastic trial, yield check, return;
 :func:`_foam_frozen_update` stops at the elastic trial (plastic state frozen).
 """
@@ -15,7 +17,7 @@ import math
 from .common import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_MAP, _inner
 from .curve import hermite_eval
 from .foam_bound import _phi_bound_data, _phi_surely_positive
-from .linalg import _solve6
+from .linalg import _lu_resolve6, _lu_solve6x2, _solve6
 from .mandel import _ZERO6, _axpy6, _dot6, _mandel_rotation_into, _mtv6, _mul6, _mv6, _rtcr, _sub6
 from .strain import _kinematics
 
@@ -189,6 +191,135 @@ def _return_mapping(f_tr, tol, bound, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds,
 
 
 @_inner
+def _rm_phi_slope(mu, c_eig, k_fac, t_tr, mt_tr, lu, evp_n, xs, ys, ds, pt, alpha, visc):
+    """Yield value after a return of size ``mu`` (as :func:`_rm_phi`) and its slope.
+
+    With ``A = I + mu M``, ``M = C K``: ``T = A^-1 T_tr`` and, as ``A^-1`` and ``M``
+    commute, ``M T = A^-1 M T_tr`` (the second right-hand side) and ``dT/dmu = -A^-1
+    M T`` (a solve with the kept factors). The slope follows by the chain rule
+    through ``sigma = K T``, ``evp = evp_n - mu tr(sigma)`` and the hardening curve.
+
+    Args:
+        mu: Return size.
+        c_eig: (6, 6) elastic stiffness in the eigenframe.
+        k_fac: Sigma-scalings ``kappa`` (6-tuple).
+        t_tr: Trial stress T (6-tuple).
+        mt_tr: ``M T_tr`` (6-tuple).
+        lu: (6, 10) scratch for the linear solves.
+        evp_n: Converged volumetric plastic strain.
+        xs: Hardening table abscissae.
+        ys: Hardening table values.
+        ds: Hardening table slopes.
+        pt: Hydrostatic tension strength.
+        alpha: Shape factor of the yield ellipse.
+        visc: ``eta / dt`` (no regularisation unless positive).
+
+    Returns:
+        (yield value, its slope d phi / d mu (NaN for a singular system), stress T,
+        rotated Cauchy stress), the last two as 6-tuples.
+    """
+    if mu == 0.0:  # A = I
+        t = t_tr
+        dt = (-mt_tr[0], -mt_tr[1], -mt_tr[2], -mt_tr[3], -mt_tr[4], -mt_tr[5])
+    else:
+        for i in range(6):
+            for j in range(6):
+                lu[i, j] = mu * c_eig[i, j] * k_fac[j]
+            lu[i, i] += 1.0
+            lu[i, 6] = t_tr[i]
+            lu[i, 7] = mt_tr[i]
+        if not _lu_solve6x2(lu):
+            return math.nan, math.nan, _ZERO6, _ZERO6
+        for i in range(6):
+            lu[i, 9] = -lu[i, 7]
+        _lu_resolve6(lu)
+        t = (lu[0, 6], lu[1, 6], lu[2, 6], lu[3, 6], lu[4, 6], lu[5, 6])
+        dt = (lu[0, 9], lu[1, 9], lu[2, 9], lu[3, 9], lu[4, 9], lu[5, 9])
+    sig = _mul6(k_fac, t)
+    dsig = _mul6(k_fac, dt)
+    tr = sig[0] + sig[1] + sig[2]
+    dtr = dsig[0] + dsig[1] + dsig[2]
+    evp = evp_n - mu * tr
+    pc, h = hermite_eval(evp, xs, ys, ds)
+    dpc = h * (-tr - mu * dtr)
+    p, p0, r = _yield_radius(sig, pc, pt, alpha)
+    dq2 = 0.0
+    for i in range(6):
+        dq2 += (sig[i] - (tr / 3.0 if i < 3 else 0.0)) * (dsig[i] - (dtr / 3.0 if i < 3 else 0.0))
+    dq2 *= 3.0
+    dr = 0.5 * dq2 + alpha * alpha * (p - p0) * (-dtr / 3.0 - 0.5 * dpc)
+    dr = dr / r if r > 0.0 else math.nan
+    f = r - 0.5 * alpha * (pc + pt)
+    slope = dr - 0.5 * alpha * dpc
+    if visc > 0.0:
+        g = math.sqrt(1.5 * _dot6(sig, sig))
+        f -= visc * (2.0 / 3.0) * mu * g
+        slope -= visc * (2.0 / 3.0) * (g + (mu * 1.5 * _dot6(sig, dsig) / g if g > 0.0 else 0.0))
+    return f, slope, t, sig
+
+
+@_inner
+def _return_newton(f_tr, tol, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds, pt, alpha, visc):
+    """Root ``mu > 0`` of ``phi(mu)`` by Newton's method, safeguarded by a bracket.
+
+    From ``mu = 0``, where ``phi = f_tr > 0``, Newton steps (:func:`_rm_phi_slope`);
+    every evaluated point narrows the bracket ``[lo, hi]`` (``phi(lo) > 0 >= phi(hi)``,
+    ``hi`` infinite until a point with ``phi <= 0`` is found), and a step that leaves
+    it, or a slope that is not negative, is replaced by bisection (doubling while
+    ``hi`` is infinite). A small return converges in two or three solves where the
+    bracketing of :func:`_return_mapping` takes several more.
+
+    Args:
+        f_tr: Trial yield value (positive).
+        tol: Tolerance on ``|phi|``.
+        c_eig: (6, 6) elastic stiffness in the eigenframe.
+        k_fac: Sigma-scalings ``kappa`` (6-tuple).
+        t_tr: Trial stress T (6-tuple).
+        lu: (6, 10) scratch for the linear solves.
+        evp_n: Converged volumetric plastic strain.
+        xs: Hardening table abscissae.
+        ys: Hardening table values.
+        ds: Hardening table slopes.
+        pt: Hydrostatic tension strength.
+        alpha: Shape factor of the yield ellipse.
+        visc: ``eta / dt`` (no regularisation unless positive).
+
+    Returns:
+        (converged, mu, stress T, rotated Cauchy stress); not converged in 40 steps
+        (the caller then brackets, :func:`_return_mapping`).
+    """
+    mt_tr = _mv6(c_eig, _mul6(k_fac, t_tr))
+    # the slope at mu = 0 (no solve: T = T_tr, dT = -M T_tr)
+    f0, slope, _t, _s = _rm_phi_slope(0.0, c_eig, k_fac, t_tr, mt_tr, lu, evp_n, xs, ys, ds,
+                                      pt, alpha, visc)
+    lo, hi = 0.0, math.inf
+    mu = f_tr / -slope if slope < 0.0 else math.nan
+    if not (mu > 0.0 and math.isfinite(mu)):
+        return False, 0.0, _ZERO6, _ZERO6
+    for _it in range(40):
+        f, slope, t, sig = _rm_phi_slope(mu, c_eig, k_fac, t_tr, mt_tr, lu, evp_n, xs, ys, ds,
+                                         pt, alpha, visc)
+        if not math.isfinite(f):
+            hi = mu
+        elif abs(f) < tol:
+            return True, mu, t, sig
+        elif f > 0.0:
+            lo = mu
+        else:
+            hi = mu
+        if hi - lo < 1e-15 * hi and math.isfinite(f):
+            return True, mu, t, sig
+        step = mu - f / slope if slope < 0.0 and math.isfinite(f) else math.nan
+        if lo < step < hi:
+            mu = step
+        elif math.isfinite(hi):
+            mu = 0.5 * (lo + hi)
+        else:
+            mu = 2.0 * mu
+    return False, mu, _ZERO6, _ZERO6
+
+
+@_inner
 def _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig):
     """Elastic trial state of the foam at one point, about the plastic strain ``ep_old``.
 
@@ -259,9 +390,12 @@ def _foam_return(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_sl
     scale = pc_n + pt
     if f_tr <= 1e-12 * scale:
         return STATUS_OK, s_fac, k_fac, t_tr, sig_tr, 0.0, ep_old, evp_n
-    bound = _phi_bound_data(f_tr, c_eig, k_fac, t_tr, scale, evp_n, pc_slope, alpha, visc)
-    converged, mu, t, sig = _return_mapping(f_tr, 1e-13 * scale, bound, c_eig, k_fac, t_tr, lu,
-                                            evp_n, xs, ys, ds, pt, alpha, visc)
+    converged, mu, t, sig = _return_newton(f_tr, 1e-13 * scale, c_eig, k_fac, t_tr, lu, evp_n,
+                                           xs, ys, ds, pt, alpha, visc)
+    if not converged:
+        bound = _phi_bound_data(f_tr, c_eig, k_fac, t_tr, scale, evp_n, pc_slope, alpha, visc)
+        converged, mu, t, sig = _return_mapping(f_tr, 1e-13 * scale, bound, c_eig, k_fac, t_tr,
+                                                lu, evp_n, xs, ys, ds, pt, alpha, visc)
     if not converged:
         return STATUS_RETURN_MAP, s_fac, k_fac, _ZERO6, _ZERO6, 0.0, ep_old, evp_n
     ep_new = _mv6(rot, _axpy6(ep_eig, mu, sig))

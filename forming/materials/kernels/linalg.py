@@ -1,9 +1,11 @@
-"""Small dense solvers: batched 3x3 symmetric eigen-decomposition and a 6x6 linear solve.
+"""Small dense solvers: batched 3x3 symmetric eigen-decomposition and 6x6 linear solves.
 
 :func:`eig_sym3` diagonalises the right Cauchy-Green tensors of all the stress
 updates of a point at once by cyclic Jacobi rotations (numba's ``np.linalg`` needs
 a BLAS the stack does not ship); :func:`_solve6` is the Gaussian elimination of the
-return mapping's linear systems. Both work in place on caller-provided arrays.
+return mapping's linear systems, :func:`_lu_solve6x2` and :func:`_lu_resolve6` the same
+with the factors kept (the return's Newton slope needs a second solve). All work in
+place on caller-provided arrays.
 """
 
 from __future__ import annotations
@@ -121,3 +123,68 @@ def _solve6(m):
             s -= m[k, j] * m[j, 6]
         m[k, 6] = s / m[k, k]
     return True
+
+
+@_inner
+def _lu_solve6x2(m):
+    """LU factorisation with partial pivoting of a 6x6 system with two right-hand sides.
+
+    Args:
+        m: (6, >= 9): ``[A | b1 | b2 | .]``, overwritten: the unit lower factor's
+            multipliers below the diagonal, the upper factor on and above it (of the
+            rows permuted), columns 6 and 7 the solutions, column 8 the row each
+            pivot came from. Column 6 receives exactly what :func:`_solve6` gives.
+
+    Returns:
+        False if a zero pivot was met.
+    """
+    for k in range(6):
+        p = k
+        best = abs(m[k, k])
+        for i in range(k + 1, 6):
+            if abs(m[i, k]) > best:
+                best = abs(m[i, k])
+                p = i
+        if best == 0.0:
+            return False
+        if p != k:
+            for j in range(8):
+                tmp = m[k, j]
+                m[k, j] = m[p, j]
+                m[p, j] = tmp
+        m[k, 8] = p
+        for i in range(k + 1, 6):
+            f = m[i, k] / m[k, k]
+            m[i, k] = f
+            if f != 0.0:
+                for j in range(k + 1, 8):
+                    m[i, j] -= f * m[k, j]
+    for c in range(6, 8):
+        for k in range(5, -1, -1):
+            s = m[k, c]
+            for j in range(k + 1, 6):
+                s -= m[k, j] * m[j, c]
+            m[k, c] = s / m[k, k]
+    return True
+
+
+@_inner
+def _lu_resolve6(m):
+    """Solve ``A x = b`` with the factors :func:`_lu_solve6x2` left in ``m``.
+
+    Args:
+        m: (6, 10) the factored system, ``b`` in column 9, which receives ``x``.
+    """
+    for k in range(6):
+        p = int(m[k, 8])
+        if p != k:
+            tmp = m[k, 9]
+            m[k, 9] = m[p, 9]
+            m[p, 9] = tmp
+        for i in range(k + 1, 6):
+            m[i, 9] -= m[i, k] * m[k, 9]
+    for k in range(5, -1, -1):
+        s = m[k, 9]
+        for j in range(k + 1, 6):
+            s -= m[k, j] * m[j, 9]
+        m[k, 9] = s / m[k, k]
