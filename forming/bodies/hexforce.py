@@ -28,9 +28,12 @@ See docs/theory.md, section 12.
 
 from __future__ import annotations
 
+import time
+
 import basix
 import numpy as np
 from dolfinx import la  # noqa: I001
+from mpi4py import MPI
 
 from forming import compat  # noqa: F401
 from forming.bodies.hexkernels import nodal_forces, right_cauchy_green, tangent_ratio
@@ -105,6 +108,21 @@ def mode_stiffness(gamma: np.ndarray, grads: np.ndarray, weights: np.ndarray,
     return out
 
 
+def loop_timing(loops: list[HexInternalForce], comm) -> dict[str, float]:
+    """The element loops' wall time on the busiest rank, and that over the ranks' mean.
+
+    The second is the load imbalance: an element that crushes or deforms much costs
+    more in the point kernel than one at rest, and the rank that holds more of them
+    sets the pace of every increment. Collective; empty without loops.
+    """
+    if not loops:
+        return {}
+    local = sum(loop.seconds for loop in loops)
+    most = comm.allreduce(local, op=MPI.MAX)
+    mean = comm.allreduce(local, op=MPI.SUM) / comm.size
+    return {"element_loops_s": most, "element_loops_imbalance": most / mean if mean else 1.0}
+
+
 class HexInternalForce:
     """Internal forces of one solid body on hexahedra, element by element.
 
@@ -176,6 +194,7 @@ class HexInternalForce:
         self.modulus = modulus
         self.plastic_floor = plastic_floor
         self.omega2 = 0.0  # the largest element frequency bound of the rank [1/s^2]
+        self.seconds = 0.0  # wall time of the rank's element work (no scatters) [s]
         self.pull()
 
     @property
@@ -193,6 +212,7 @@ class HexInternalForce:
         Raises:
             KernelFailure: An inverted element or a failed return mapping.
         """
+        t0 = time.perf_counter()
         body = self.body
         u = body.u.x.array
         right_cauchy_green(u, self.nodes, self.grads, self.cm, self.detf)
@@ -213,6 +233,7 @@ class HexInternalForce:
         self.omega2 = nodal_forces(u, self.nodes, self.grads, self.weights, self.stress,
                                    self.gamma, self.k_hg, self.phi, self.hg,
                                    self.hg_energy[1], self.wave2, out.array)
+        self.seconds += time.perf_counter() - t0
         out.scatter_reverse(la.InsertMode.add)
         out.scatter_forward()
 

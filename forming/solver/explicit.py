@@ -34,10 +34,11 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat, signals  # noqa: F401
+from forming.bodies.hexforce import loop_timing
 from forming.contact.selfcontact import SelfContactTerm
 from forming.errors import InputError, KernelFailure
 from forming.model import Model
-from forming.solver import lumped
+from forming.solver import leapfrog, lumped
 from forming.solver.base import StepResult
 from forming.solver.ledger import EnergyLedger
 from forming.solver.lumped import BodyState, ExternalTerm, OutsideForms, ToolTerm, body_density
@@ -131,8 +132,10 @@ class ExplicitSolver:
         self._impulse: dict[str, np.ndarray] = {}
         self._reaction_impulse: dict[str, float] = {}
         self._tau_start = 0.0
+        # per body: u, f_int, f_all and v at the increment's start, its displacement
         self._old = [(np.zeros(st.body.u.x.array.size), np.zeros(st.n_owned),
-                      np.zeros(st.n_owned), np.zeros(st.v.size)) for st in self.states]
+                      np.zeros(st.n_owned), np.zeros(st.v.size), np.zeros(st.n_owned))
+                     for st in self.states]
         self.dt = math.inf  # no time step yet: a self-contact's penalty is 0 at rest
         self._assemble_forces()  # forces at rest (e.g. a preload) give a_0
         self.dt = self._dt_ref = self._time_step()
@@ -191,33 +194,23 @@ class ExplicitSolver:
 
     def _accelerate(self, st: BodyState) -> None:
         """Acceleration a = -R / m - alpha v, zero where the motion is prescribed."""
-        np.divide(st.f_all.x.array, st.m, out=st.a)
-        np.negative(st.a, out=st.a)
-        if (alpha := self._alpha[st.name]) > 0:
-            st.a -= alpha * st.v
-        st.a[st.fixed] = 0.0
+        leapfrog.accelerate(st.f_all.x.array, st.m, st.v, self._alpha[st.name], st.fixed, st.a)
 
     def _increment(self, dt: float) -> None:
         """Advance by ``dt``: velocity, displacement, load, forces, acceleration, history."""
         model = self.model
-        for st, (u0, f0, r0, v0) in zip(self.states, self._old, strict=True):
-            n = st.n_owned
-            u = st.body.u.x.array
-            u0[:] = u
-            f0[:] = st.f_int.x.array[:n]
-            r0[:] = st.f_all.x.array[:n]
-            v0[:] = st.v
+        for st, (u0, f0, r0, v0, _du) in zip(self.states, self._old, strict=True):
             # leapfrog: v(n+1/2) = v(n-1/2) + dt a(n); the first half step from rest
-            st.v += (dt if self.time_steps else 0.5 * dt) * st.a
-            u += dt * st.v
+            leapfrog.advance(st.body.u.x.array, st.v, st.a, st.f_int.x.array,
+                             st.f_all.x.array, u0, f0, r0, v0, st.n_owned,
+                             dt if self.time_steps else 0.5 * dt, dt)
         tool_old = [t.contact.tool_offset() for t in self._tools]
         self.tau += dt
         model.set_load(self.options.load(self.tau))
         for st, (u0, *_rest) in zip(self.states, self._old, strict=True):
             for bc in st.bcs:
                 bc.set(st.body.u.x.array)
-            fixed = st.fixed
-            st.v[fixed] = (st.body.u.x.array[fixed] - u0[fixed]) / dt
+            leapfrog.prescribed_velocity(st.body.u.x.array, u0, st.v, st.fixed_dofs, dt)
         self._assemble_forces(dt)
         self._account(dt, tool_old)
         for st in self.states:
@@ -233,19 +226,17 @@ class ExplicitSolver:
         """This rank's works over the increment (trapezoidal rule), tool impulses."""
         w_int = w_ext = w_damp = w_visc = on_bodies = tools = 0.0
         du = {}
-        for st, (u0, f0, r0, v0) in zip(self.states, self._old, strict=True):
-            n = st.n_owned
-            d = du[st.name] = st.body.u.x.array[:n] - u0[:n]
-            w_int += 0.5 * float((f0 + st.f_int.x.array[:n]) @ d)
+        for st, (u0, f0, r0, v0, d) in zip(self.states, self._old, strict=True):
             # all external forces on the free dofs do R = f_int - f_ext; at prescribed
-            # dofs the support does the work that changes their kinetic energy
-            free = ~st.fixed[:n]
-            r = r0 + st.f_all.x.array[:n]
-            w_ext -= 0.5 * float(r[free] @ d[free])
-            fixed = st.fixed[:n]
-            w_ext += 0.5 * float(st.m[:n][fixed] @ (st.v[:n][fixed] ** 2 - v0[:n][fixed] ** 2))
-            if (alpha := self._alpha[st.name]) > 0:  # the force alpha m v did work on them
-                w_damp += alpha * float((st.m[:n] * v0[:n])[free] @ d[free])
+            # dofs the support does the work that changes their kinetic energy; the mass
+            # damping's force alpha m v did work on the free ones
+            body_int, body_ext, body_damp = leapfrog.works(
+                st.body.u.x.array, u0, st.f_int.x.array, f0, st.f_all.x.array, r0, st.fixed,
+                st.m, st.v, v0, self._alpha[st.name], st.n_owned, d)
+            du[st.name] = d
+            w_int += body_int
+            w_ext += body_ext
+            w_damp += body_damp
         for term in self._sides:
             on_bodies -= 0.5 * float((term.r_old + term.r_new) @ du[term.state.name])
         for term in self._viscous:  # dissipated, and in R: -R . d is short of it
@@ -464,7 +455,7 @@ class ExplicitSolver:
                "loading_time_s": self.options.loading_time,
                "assembly_s": self.comm.allreduce(self.assembly_seconds) / self.comm.size,
                "integration_s": self.integration_seconds, "elements": n_el}
-        out |= self.model.search_timing()
+        out |= self.model.search_timing() | loop_timing(self._loop_list, self.comm)
         if self.time_steps:
             out["us_per_element_increment"] = (1e6 * self.integration_seconds
                                                / (self.time_steps * n_el))

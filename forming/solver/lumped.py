@@ -52,6 +52,7 @@ class BodyState:
         for bc in bcs:
             mask[bc.dof_indices()[0]] = True
         self.fixed = mask
+        self.fixed_dofs = np.flatnonzero(mask)
         self.v = np.zeros_like(body.u.x.array)  # velocity at the half step
         self.a = np.zeros_like(self.v)
         self.f_int = fem.Function(V)  # internal forces (assembled, ghosts updated)
