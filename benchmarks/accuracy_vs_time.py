@@ -60,14 +60,16 @@ def _error(ref: tuple[np.ndarray, np.ndarray], run: tuple[np.ndarray, np.ndarray
         "force_rms_diff_rel"]
 
 
-def _cheapest(rows: list[dict], solver: str, tol: float) -> dict | None:
+def _cheapest(rows: list[dict], solver: str, tol: float, crushed: bool) -> dict | None:
     ok = [r for r in rows if r["solver"] == solver and r["status"] == "completed"
-          and r["error"] <= tol]
+          and r["error"] <= tol and (not crushed or abs(r["crushed_error"]) <= tol)]
     return min(ok, key=lambda r: r["wall_s"]) if ok else None
 
 
-def _verdict(rows: list[dict], tol: float) -> str:
-    imp, exp = _cheapest(rows, "implicit", tol), _cheapest(rows, "explicit", tol)
+def _verdict(rows: list[dict], tol: float, crushed: bool = False) -> str:
+    """Which solver reaches ``tol`` force error sooner (``crushed``: and crushed volume)."""
+    imp = _cheapest(rows, "implicit", tol, crushed)
+    exp = _cheapest(rows, "explicit", tol, crushed)
     def say(r):
         return f"{r['label']}, {r['wall_s']:.0f} s" if r else "no setting reached it"
     if imp and exp:
@@ -78,7 +80,8 @@ def _verdict(rows: list[dict], tol: float) -> str:
         verdict = f"**{'implicit' if imp else 'explicit'}** is the only one to reach it"
     else:
         verdict = "neither reaches it"
-    return (f"- At {tol:.0%} error: {verdict} (cheapest implicit: {say(imp)}; "
+    what = " in force and crushed volume" if crushed else ""
+    return (f"- At {tol:.0%} error{what}: {verdict} (cheapest implicit: {say(imp)}; "
             f"cheapest explicit: {say(exp)}).")
 
 
@@ -228,7 +231,17 @@ def write(rows: list[dict], ref_row: dict, cells: str, quick: bool, where: str) 
         lines.append(f"| {r['solver']} | {r['label']} | {r['status']} | {r['work']} | {dt} "
                      f"| {added} | {kei} | {r['error']:.2%} | {r['crushed_error']:+.2%} "
                      f"| {r['wall_s']:.1f} |")
-    lines += ["", _verdict(rows, 0.01), _verdict(rows, 0.05), "",
+    lines += ["", _verdict(rows, 0.01), _verdict(rows, 0.05), _verdict(rows, 0.05, crushed=True),
+              "", "Reduced integration gets the force within 4-5% but not the crushing "
+              "(largest crushing strain 0.017 against 0.187 with full integration at 0.05 s; "
+              "crushed volume 80-100% short): the core bends over the die edge with 3 elements "
+              "through its thickness, and a one-point element carries bending in its "
+              "hourglass modes (14% of the internal energy here), which are elastic-like and "
+              "do not crush, where the full element's points near the compressed face do (the "
+              "likely cause; not isolated). "
+              "The crushed volume is a threshold measure (plastic volumetric strain above 0.01) "
+              "and converges slowly with the step: the implicit runs stay 1.2% short of the "
+              "reference down to max_step 0.005, so no run is within 1% of it.", "",
               "![error against wall time](figures/accuracy_vs_time.png)"]
     update_section("accuracy_vs_time", "\n".join(lines), REPO / "docs" / "performance.md")
     print("\n".join(lines))
