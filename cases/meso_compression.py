@@ -47,7 +47,10 @@ first step in which a wall node is behind another wall's face, and says so.
 
 Limits of this meso model (issue 20, in progress): on the default meshes the implicit
 run stops some way past the peak (docs/validation.md, "fracturing cell walls", says
-where); the infill does not fracture (Table 3: 0.010) nor the flanges (0.067).
+where). The dummies stay elastic unless ``dummy_deletion=true``, which deletes (erodes)
+their points at Table 3's fracture strains (infill 0.010, flanges 0.067), in compression
+as in tension; an implicit run has nothing to hold a deleted dummy's nodes but the
+stabilisation.
 
 Accuracy of the defaults: not yet studied (the wall tests give 1% in bending and 2.3%
 in buckling at their mesh sizes).
@@ -102,6 +105,7 @@ from forming.solver.stepping import StepControl
 INFILL_MODULUS, INFILL_POISSON = 0.3, 0.0  # the paper's dummy infill, Table 3 [MPa]
 FLANGE_MODULUS, FLANGE_POISSON = 4.0, 0.21  # the paper's dummy flanges, Table 3 [MPa]
 INFILL_DENSITY = 5.0e-11  # the dummy infill, Table 3 [t/mm^3]
+INFILL_FRACTURE, FLANGE_FRACTURE = 0.010, 0.067  # the dummies' fracture strains, Table 3
 
 
 @dataclass(frozen=True)
@@ -136,6 +140,8 @@ class Params:
     variant: Literal["original", "infill", "flange"] = "original"  # walls alone or with dummies
     flange_width: float = 1.0  # dummy flange width into the pores [mm] (our estimate)
     flange_thickness: float = 0.3  # dummy flange thickness [mm] (our estimate)
+    # the dummies deleted at Table 3's fracture strains (explicit: nothing holds them after)
+    dummy_deletion: bool = False
     max_step: float = 0.05  # largest load step (fraction of the stroke)
     # or transverse shear, or in-plane tension
     load: Literal["compression", "shear_x", "shear_y", "tension_x", "tension_y"] = "compression"
@@ -179,14 +185,14 @@ def build(p: Params) -> Job:
     parts = [("walls", "bottom", "top", "platen")]
     interfaces = ()
     if p.variant == "infill":  # Table 3's dummy infill, bonded to the walls
-        infill = ElasticSolid(IsotropicElasticity(INFILL_MODULUS, INFILL_POISSON),
-                              density=INFILL_DENSITY)
+        infill = _dummy(IsotropicElasticity(INFILL_MODULUS, INFILL_POISSON), INFILL_DENSITY,
+                        INFILL_FRACTURE, p.dummy_deletion)
         bodies.append(Body("infill", infill, region="infill", degree=1))
         parts.append(("infill", "infill_bottom", "infill_top", "platen_infill"))
         interfaces = (Interface("wall_infill", "walls", "infill", kind="bonded"),)
     elif p.variant == "flange":  # Table 3's dummy flanges on the walls' top edges
-        flange = ElasticSolid(IsotropicElasticity(FLANGE_MODULUS, FLANGE_POISSON),
-                              density=WALL_DENSITY)  # Table 3: the walls' density
+        flange = _dummy(IsotropicElasticity(FLANGE_MODULUS, FLANGE_POISSON),
+                        WALL_DENSITY, FLANGE_FRACTURE, p.dummy_deletion)  # Table 3
         bodies.append(Body("flange", flange, region="flange", degree=2))
         parts.append(("flange", None, "flange_top", "platen_flange"))
         interfaces = (Interface("wall_flange", "walls", "flange", kind="bonded"),)
@@ -312,6 +318,23 @@ def _walls(p: Params) -> FracturingSolid | ElasticSolid:
                                erosion=p.erosion, viscosity=p.damage_viscosity,
                                density=WALL_DENSITY)
     return ElasticSolid(cardboard, density=WALL_DENSITY)
+
+
+def _dummy(elasticity: IsotropicElasticity, density: float, strain: float,
+           deletion: bool) -> FracturingSolid | ElasticSolid:
+    """A dummy material of Table 3: elastic, or deleted at its fracture strain.
+
+    With ``deletion`` a point is eroded once its largest principal strain in magnitude
+    reaches ``strain``, in compression as in tension (the paper's element deletion;
+    which strain its explicit code compared is not stated). The crack band's fracture
+    energy is set so that tensile softening would take the band to ten times the
+    fracture strain over a 1 mm element: deletion comes first.
+    """
+    if not deletion:
+        return ElasticSolid(elasticity, density=density)
+    energy = 5.0 * elasticity.E * strain * strain  # eps_u = 2 G_f / (E eps_f h) = 10 eps_f
+    return FracturingSolid(elasticity, strain, energy, erosion=True, deletion_strain=strain,
+                           density=density)
 
 
 def _tension(p: Params, patch: HoneycombPatch) -> Job:

@@ -60,6 +60,35 @@ def test_fracturing_solid_input():
         FracturingSolid(CARDBOARD, fracture_strain=0.0)
 
 
+@pytest.mark.parametrize("sign", [-1.0, 1.0], ids=["compression", "tension"])
+def test_deletion_strain_erodes_in_compression_and_tension(sign):
+    """A point with a deletion strain (the paper's dummies, Table 3: 0.010) keeps its
+    elastic stress below it and carries nothing from the step after it reached it, in
+    uniaxial compression as in tension; without one, compression never erodes.
+
+    Uniaxial strain (nu 0, Hencky): T = E e until |e| = 0.010 (in tension the band
+    starts to soften there too), then 0 (the point is flagged in the step that reaches
+    it, stress-free from the next). A failure means
+    deletion misses compression (our crack band is tension-driven) or comes late.
+    """
+    m = FracturingSolid(IsotropicElasticity(0.3, 0.0), fracture_strain=0.010,
+                        fracture_energy=1.0, deletion_strain=0.010, erosion=True)
+    strains = sign * np.array([0.002, 0.006, 0.0099, 0.0101, 0.012, 0.02])
+    t, hist = _uniaxial_path(m, 1.0, strains)
+    assert t[:3] == pytest.approx(0.3 * strains[:3], rel=1e-9)
+    # past 0.010 in tension the crack band has begun to soften as well (1% here)
+    assert t[3] == pytest.approx(0.3 * strains[3], rel=1e-9 if sign < 0 else 0.02)
+    assert np.all(t[4:] == 0.0)
+    assert hist[0, 4] == 1.0
+    kept = FracturingSolid(IsotropicElasticity(0.3, 0.0), fracture_strain=0.010,
+                           fracture_energy=1.0, erosion=True)
+    t_kept, hist_kept = _uniaxial_path(kept, 1.0, -np.abs(strains))
+    assert t_kept == pytest.approx(-0.3 * np.abs(strains), rel=1e-9)
+    assert hist_kept[0, 4] == 0.0
+    with pytest.raises(InputError, match="deletion_strain"):
+        FracturingSolid(CARDBOARD, deletion_strain=-0.01)
+
+
 def test_damage_jacobian_taylor():
     """Taylor test of the FE Jacobian of a block softening in tension (every point on the
     softening branch, loading): slopes 1 and 2.

@@ -16,6 +16,7 @@ import numpy as np
 from forming.errors import InputError
 from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.kernels.damage import (
+    DAMAGE_DELETE,
     DAMAGE_DMAX,
     DAMAGE_EPS_F,
     DAMAGE_ERODE,
@@ -43,6 +44,11 @@ class FracturingSolid:
         erosion: Erode a point once its band is spent (no stress, no shape check),
             as an explicit code deletes failed elements. An eroded element's inner
             nodes are then held only by a scene's stabilisation.
+        deletion_strain: Erode a point, from the next step on, once its largest
+            principal strain in magnitude (Hencky; compression counts) reaches this
+            value, damaged or not: element deletion at a failure strain, as the paper's
+            dummy materials (Table 3). None: no deletion (``erosion`` alone erodes spent
+            bands). Explicit runs: an eroded region has no stiffness left.
         viscosity: Viscous regularisation of the damage [mm of the tools' travel]: the
             damage follows its rate-independent value with this lag (0: none, the
             default). Implicit runs only; it needs something in the scene to move.
@@ -55,6 +61,7 @@ class FracturingSolid:
     fracture_energy: float = 7.4
     max_damage: float = 0.99
     erosion: bool = False
+    deletion_strain: float | None = None
     viscosity: float = 0.0
     strain_measure: StrainMeasure = "hencky"
     density: float | None = None
@@ -69,6 +76,10 @@ class FracturingSolid:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise InputError(f"material.{name}", f"must be a positive number, got {v!r}")
+        d = self.deletion_strain
+        if d is not None and not (isinstance(d, int | float) and math.isfinite(d) and d > 0):
+            raise InputError("material.deletion_strain",
+                             f"must be a positive number or None, got {d!r}")
         if not (0.0 < self.max_damage < 1.0):
             raise InputError("material.max_damage",
                              f"must lie in (0, 1), got {self.max_damage!r}")
@@ -107,6 +118,7 @@ class FracturingSolid:
         props[DAMAGE_DMAX] = self.max_damage
         props[DAMAGE_ERODE] = 1.0 if self.erosion else 0.0
         props[DAMAGE_RATE] = 1.0  # rate-independent; evaluate() sets a step's share
+        props[DAMAGE_DELETE] = self.deletion_strain or 0.0
         empty = np.zeros(1)
         return KernelData(self.elasticity.stiffness(), measure_code(self.strain_measure), True,
                           props, empty, empty, empty, damage=True)

@@ -12,6 +12,9 @@ d_max`` keeps the implicit system regular). Optionally a point whose band is spe
 (``kappa >= eps_u``) is eroded from the next step on, as an explicit code deletes a
 failed element: it carries no stress, and its shape is no longer checked (a spent point
 stretched several times its length would otherwise invert its element and stop the run).
+A deletion strain (optional) erodes a point the same way once its largest principal
+Hencky strain in magnitude reaches it, in compression as in tension: an explicit code's
+element deletion at a failure strain, as the paper's dummy materials (Table 3).
 
 Viscous regularisation (optional, as Abaqus/Standard's for damage): the damage of a step
 is ``d_n + r (d(kappa) - d_n)`` with ``r = w / (1 + w)``, ``w`` the step's travel over a
@@ -49,7 +52,8 @@ DAMAGE_GF = 2  # props: fracture energy G_f [N/mm]
 DAMAGE_DMAX = 3  # props: largest damage
 DAMAGE_ERODE = 4  # props: 1 erodes a point whose band is spent, 0 keeps it
 DAMAGE_RATE = 5  # props: share of the gap to the rate-independent damage closed this step
-N_DAMAGE_PROPS = 6
+DAMAGE_DELETE = 6  # props: deletion strain (largest principal strain in magnitude; 0: none)
+N_DAMAGE_PROPS = 7
 
 
 @_inner
@@ -137,6 +141,7 @@ def _damage_points(cmats, hist_n, kappa_n, cel, measure, props, ginv, per_cell, 
     geo, mt, tmp, _sys = twork
     eps_f, d_max, rate = props[DAMAGE_EPS_F], props[DAMAGE_DMAX], props[DAMAGE_RATE]
     erode = props[DAMAGE_ERODE] > 0.0
+    delete = props[DAMAGE_DELETE]
     lam, mu = cel[0, 1], 0.5 * cel[3, 3]  # isotropic
     young = mu * (3.0 * lam + 2.0 * mu) / (lam + mu)
     nbad = 0
@@ -189,7 +194,9 @@ def _damage_points(cmats, hist_n, kappa_n, cel, measure, props, ginv, per_cell, 
         hist_out[ip, 2] = hist_n[ip, 2] + 0.5 * (hist_n[ip, 3] + y) * (d - hist_n[ip, 0])
         hist_out[ip, 3] = y
         spent = h > 0.0 and kappa >= eps_u and d >= 0.99 * d_max
-        hist_out[ip, 4] = 1.0 if (erode and spent) else 0.0
+        # deletion at a failure strain, in compression as in tension
+        failed = delete > 0.0 and max(abs(e[0]), abs(e[1]), abs(e[2])) >= delete
+        hist_out[ip, 4] = 1.0 if (erode and spent) or failed else 0.0
         kappa_out[ip] = kappa
         if not want_tangent:
             continue
