@@ -77,6 +77,21 @@ def common_window(pairs: list) -> list[str]:
             + ", ".join(f"{v} {w:.3f}" for v, _t, w in found) + f" MPa ({spread[1]:.0f}%)."]
 
 
+def plateaus_of(row, summary: dict) -> tuple:
+    """A run's curves and plateaus: (strain, whole platen, walls' share, (both plateaus))."""
+    peak = summary["metrics"]["peak_strain"]
+    e, total = curve(row, summary)
+    _e, walls = walls_curve(row, summary)
+    return e, total, walls, (regions(e, total, peak)[0], regions(e, walls, peak)[0])
+
+
+def run_cells(row, summary: dict) -> str:
+    """The first cells of a run's row: variant, status, strain reached, peak."""
+    m = summary["metrics"]
+    return (f"| {row.values['variant']} | {status_text(row, summary)} | "
+            f"{m['final_strain']:.4f} | {m['peak_stress_MPa']:.3f} at {m['peak_strain']:.4f}")
+
+
 def deletion_rows(deleted: list, original: tuple[float, float] | None) -> list[str]:
     """The dummies deleted at Table 3's fracture strains (``dummy_deletion=true``)."""
     lines = ["", "The dummies deleted where their largest principal strain reaches Table 3's "
@@ -90,14 +105,10 @@ def deletion_rows(deleted: list, original: tuple[float, float] | None) -> list[s
         if not m:
             lines.append(f"| {v} | {status_text(row, s)} |" + " |" * 6 + f" {commit(s)} |")
             continue
-        e, total = curve(row, s)
-        _e, walls = walls_curve(row, s)
-        both = (regions(e, total, m["peak_strain"])[0], regions(e, walls, m["peak_strain"])[0])
+        both = plateaus_of(row, s)[3]
         ratio = f"{both[0] / original[0]:.2f}" if original else ""
-        lines.append(
-            f"| {v} | {status_text(row, s)} | {m['final_strain']:.4f} "
-            f"| {m['peak_stress_MPa']:.3f} at {m['peak_strain']:.4f} | {both[0]:.3f} "
-            f"| {both[1]:.3f} | {ratio} | {s['timing']['wall_s']:.0f} | {commit(s)} |")
+        lines.append(f"{run_cells(row, s)} | {both[0]:.3f} | {both[1]:.3f} | {ratio} "
+                     f"| {s['timing']['wall_s']:.0f} | {commit(s)} |")
     return lines
 
 
@@ -141,13 +152,10 @@ def main() -> None:
             lines.append(f"| {v} | {status_text(row, s)} |" + " |" * 7
                          + f" {PAPER_TABLE2[v]} | {commit(s)} |")
             continue
-        e, total = curve(row, s)
-        _e, walls = walls_curve(row, s)
-        both = (regions(e, total, m["peak_strain"])[0], regions(e, walls, m["peak_strain"])[0])
+        e, total, walls, both = plateaus_of(row, s)
         plateaus[v] = both
         lines.append(
-            f"| {v} | {status_text(row, s)} | {m['final_strain']:.4f} "
-            f"| {m['peak_stress_MPa']:.3f} at {m['peak_strain']:.4f} | {both[0]:.3f} "
+            f"{run_cells(row, s)} | {both[0]:.3f} "
             f"| {both[1]:.3f} | {100 * (1 - both[1] / both[0]):.0f}% "
             f"| {100 * m['kinetic_to_internal_max']:.1f}% | {s['timing']['wall_s']:.0f} "
             f"| {PAPER_TABLE2[v]} | {commit(s)} |")
@@ -183,9 +191,8 @@ def main() -> None:
             continue
         e, total = curve(row, s)
         lines.append(
-            f"| {v} | {status_text(row, s)} | {m['final_strain']:.4f} "
-            f"| {m['peak_stress_MPa']:.3f} at {m['peak_strain']:.4f} "
-            f"| {m['final_stress_MPa']:.3f} | {s['timing'].get('newton_iterations', '')} "
+            f"{run_cells(row, s)} | {m['final_stress_MPa']:.3f} "
+            f"| {s['timing'].get('newton_iterations', '')} "
             f"| {s['timing']['wall_s']:.0f} | {commit(s)} |")
         curves.append((e, total, f"{v}: implicit", "--"))
     lines += ["", "- Why the explicit plateaus of the first table are not within 10%: the "

@@ -123,7 +123,7 @@ class NodalContact:
             f_all[self.dofs] += self.residual(u, offset, v_rel).ravel()
             return
         kind, q = self._code
-        c, v, w = damping if damping is not None else nodalkernels.no_damping()
+        c, v, w = damping if damping is not None else nodalkernels.NO_DAMPING
         nodalkernels.contact_residual(kind, q, u, self.nodes, self.coords, self.area,
                                       np.asarray(offset, dtype=float), self.penalty,
                                       self.friction, c, v, w, self.lam_t, self.u_prev,

@@ -69,20 +69,15 @@ def distance(kind, q, x, y, z):
     return outside + inside - r
 
 
-@numba.njit(cache=True)
-def gap_normal(kind, q, points, gap, normal):
-    """Signed distance and outward normal (one-sided difference) of (n, 3) points."""
-    for i in range(points.shape[0]):
-        x, y, z = points[i, 0], points[i, 1], points[i, 2]
-        d = distance(kind, q, x, y, z)
-        g0 = (distance(kind, q, x + _H, y, z) - d) / _H
-        g1 = (distance(kind, q, x, y + _H, z) - d) / _H
-        g2 = (distance(kind, q, x, y, z + _H) - d) / _H
-        size = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2 + _TINY)
-        gap[i] = d
-        normal[i, 0] = g0 / size
-        normal[i, 1] = g1 / size
-        normal[i, 2] = g2 / size
+@numba.njit(cache=True, inline="always")
+def _gap_normal(kind, q, x, y, z):
+    """Signed distance and outward normal (one-sided difference, as the shapes') at a point."""
+    d = distance(kind, q, x, y, z)
+    g0 = (distance(kind, q, x + _H, y, z) - d) / _H
+    g1 = (distance(kind, q, x, y + _H, z) - d) / _H
+    g2 = (distance(kind, q, x, y, z + _H) - d) / _H
+    size = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2 + _TINY)
+    return d, g0 / size, g1 / size, g2 / size
 
 
 @numba.njit(cache=True)
@@ -121,12 +116,7 @@ def contact_residual(kind, q, u, nodes, coords, area, offset, penalty, friction,
         x = coords[i, 0] + u0 - offset[0]
         y = coords[i, 1] + u1 - offset[1]
         z = coords[i, 2] + u2 - offset[2]
-        d = distance(kind, q, x, y, z)
-        g0 = (distance(kind, q, x + _H, y, z) - d) / _H
-        g1 = (distance(kind, q, x, y + _H, z) - d) / _H
-        g2 = (distance(kind, q, x, y, z + _H) - d) / _H
-        size = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2 + _TINY)
-        n0, n1, n2 = g0 / size, g1 / size, g2 / size
+        d, n0, n1, n2 = _gap_normal(kind, q, x, y, z)
         trial = -penalty * d
         if damped and d < 0.0:
             trial -= damp[i] * ((v[k] - tool_velocity[0]) * n0 + (v[k + 1] - tool_velocity[1])
@@ -167,6 +157,5 @@ def commit_slip(u, nodes, shear, lam_t, u_prev):
             u_prev[i, j] = u[k + j]
 
 
-def no_damping() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Arguments ``damp, v, tool_velocity`` of an undamped :func:`contact_residual`."""
-    return np.zeros(0), np.zeros(0), np.zeros(3)
+NO_DAMPING = (np.zeros(0), np.zeros(0), np.zeros(3))
+"""Arguments ``damp, v, tool_velocity`` of an undamped :func:`contact_residual`."""

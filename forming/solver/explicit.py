@@ -139,7 +139,7 @@ class ExplicitSolver:
         self.dt = math.inf  # no time step yet: a self-contact's penalty is 0 at rest
         self._assemble_forces()  # forces at rest (e.g. a preload) give a_0
         self.dt = self._dt_ref = self._time_step()
-        self._omega2_ref = self._omega2_now = comm.allreduce(self._local_omega2(), op=MPI.MAX)
+        self._omega2_ref = self._omega2_now = self._omega2()
         self._s_bound = 0.0  # load parameter of the last Gershgorin bound
         for st in self.states:
             self._accelerate(st)
@@ -157,6 +157,10 @@ class ExplicitSolver:
     def _local_omega2(self) -> float:
         """The largest element frequency bound of this rank's element loops [1/s^2]."""
         return max((loop.omega2 for loop in self._loop_list), default=0.0)
+
+    def _omega2(self) -> float:
+        """The largest element frequency bound over all ranks (collective)."""
+        return self.comm.allreduce(self._local_omega2(), op=MPI.MAX)
 
     def _follow_stiffening(self, omega2: float) -> None:
         """Shorten the time step as the stiffest element stiffens (crushing, compression).
@@ -339,8 +343,7 @@ class ExplicitSolver:
         ok = self.comm.allreduce(ok, op=MPI.LAND)
         if ok:
             self._push()
-            # the stiffest element at the interval's end
-            self._omega2_now = self.comm.allreduce(self._local_omega2(), op=MPI.MAX)
+            self._omega2_now = self._omega2()  # the stiffest element at the interval's end
             self.ledger.close_interval(self.comm, self._kinetic(), self._hourglass(),
                                        self._s_end)
             for v in self._impulse.values():

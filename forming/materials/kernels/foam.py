@@ -2,8 +2,8 @@
 
 The yield function (:func:`_foam_yield`) is written in the rotated Cauchy stress;
 the flow is radial in it, so for a return of size ``mu`` the stress follows from one
-6x6 linear solve (:func:`_rm_phi`). :func:`_return_newton` finds the root ``mu`` by
-Newton's method in a bracket (the slope from a second solve, :func:`_rm_phi_slope`);
+6x6 linear solve, and its slope from a second one (:func:`_rm_phi_slope`).
+:func:`_return_newton` finds the root ``mu`` by Newton's method in a bracket;
 should it fail, :func:`_return_mapping` brackets the smallest root geometrically and
 closes in by Illinois regula falsi. :func:`_foam_update`
 is the whole update at one point: elastic trial, yield check, return;
@@ -17,7 +17,7 @@ import math
 from .common import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_MAP, _inner
 from .curve import hermite_eval
 from .foam_bound import _phi_bound_data, _phi_surely_positive
-from .linalg import _lu_resolve6, _lu_solve6x2, _solve6
+from .linalg import _lu_resolve6, _lu_solve6x2
 from .mandel import _ZERO6, _axpy6, _dot6, _mandel_rotation_into, _mtv6, _mul6, _mv6, _rtcr, _sub6
 from .strain import _kinematics
 
@@ -72,49 +72,6 @@ def _foam_yield(sig, pc, pt, alpha):
 
 
 @_inner
-def _rm_phi(mu, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds, pt, alpha, visc):
-    """Yield value after a return of size ``mu``.
-
-    The flow is radial in the rotated Cauchy stress (``dg m = mu sigma``), so for a
-    given ``mu`` the update ``T = T_tr - mu C K T`` is linear:
-    ``T = (I + mu C K)^-1 T_tr`` with ``K = diag(kappa)``. With viscous regularisation
-    (``visc = eta / dt > 0``, Duvaut-Lions/Perzyna overstress) the value is
-    ``f - visc * dgamma`` with ``dgamma = 2/3 mu g``, ``g = sqrt(3/2 sigma : sigma)``.
-
-    Args:
-        mu: Return size.
-        c_eig: (6, 6) elastic stiffness in the eigenframe.
-        k_fac: Sigma-scalings ``kappa`` (6-tuple).
-        t_tr: Trial stress T (6-tuple).
-        lu: (6, 7) scratch for the linear solve.
-        evp_n: Converged volumetric plastic strain.
-        xs: Hardening table abscissae.
-        ys: Hardening table values.
-        ds: Hardening table slopes.
-        pt: Hydrostatic tension strength.
-        alpha: Shape factor of the yield ellipse.
-        visc: ``eta / dt`` (no regularisation unless positive).
-
-    Returns:
-        (yield value, stress T, rotated Cauchy stress), the last two as 6-tuples.
-    """
-    for i in range(6):
-        for j in range(6):
-            lu[i, j] = mu * c_eig[i, j] * k_fac[j]
-        lu[i, i] += 1.0
-        lu[i, 6] = t_tr[i]
-    _solve6(lu)
-    t = (lu[0, 6], lu[1, 6], lu[2, 6], lu[3, 6], lu[4, 6], lu[5, 6])
-    sig = _mul6(k_fac, t)
-    evp = evp_n - mu * (sig[0] + sig[1] + sig[2])
-    pc, _h = hermite_eval(evp, xs, ys, ds)
-    f = _foam_yield(sig, pc, pt, alpha)
-    if visc > 0.0:
-        f -= visc * (2.0 / 3.0) * mu * math.sqrt(1.5 * _dot6(sig, sig))
-    return f, t, sig
-
-
-@_inner
 def _return_mapping(f_tr, tol, bound, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds, pt, alpha,
                     visc):
     """Smallest root ``mu > 0`` of ``phi(mu) = f(sigma(mu), pc(evp(mu)))``.
@@ -132,7 +89,7 @@ def _return_mapping(f_tr, tol, bound, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds,
         c_eig: (6, 6) elastic stiffness in the eigenframe.
         k_fac: Sigma-scalings ``kappa`` (6-tuple).
         t_tr: Trial stress T (6-tuple).
-        lu: (6, 7) scratch for the linear solves.
+        lu: (6, 10) scratch for the linear solves.
         evp_n: Converged volumetric plastic strain.
         xs: Hardening table abscissae.
         ys: Hardening table values.
@@ -145,6 +102,7 @@ def _return_mapping(f_tr, tol, bound, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds,
         (converged, mu, stress T, rotated Cauchy stress) at the root, the last two
         as 6-tuples.
     """
+    mt_tr = _mv6(c_eig, _mul6(k_fac, t_tr))
     cmax = 0.0
     for i in range(6):
         cmax = max(cmax, c_eig[i, i] * k_fac[i])
@@ -161,20 +119,23 @@ def _return_mapping(f_tr, tol, bound, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds,
         if _phi_surely_positive(mu_hi, bound):
             hi_known = False
             continue
-        f_hi, t, sig = _rm_phi(mu_hi, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds, pt, alpha, visc)
+        f_hi, _s, t, sig = _rm_phi_slope(mu_hi, c_eig, k_fac, t_tr, mt_tr, lu, evp_n, xs, ys,
+                                         ds, pt, alpha, visc)
         hi_known = True
         if f_hi <= 0.0:
             break
     else:
         return False, mu_hi, t, sig
     if not lo_known:
-        f_lo, t, sig = _rm_phi(mu_lo, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds, pt, alpha, visc)
+        f_lo, _s, t, sig = _rm_phi_slope(mu_lo, c_eig, k_fac, t_tr, mt_tr, lu, evp_n, xs, ys,
+                                         ds, pt, alpha, visc)
     side = 0
     for _it in range(200):
         mu = (mu_lo * f_hi - mu_hi * f_lo) / (f_hi - f_lo)
         if not (mu_lo < mu < mu_hi):
             mu = 0.5 * (mu_lo + mu_hi)
-        fm, t, sig = _rm_phi(mu, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds, pt, alpha, visc)
+        fm, _s, t, sig = _rm_phi_slope(mu, c_eig, k_fac, t_tr, mt_tr, lu, evp_n, xs, ys, ds,
+                                       pt, alpha, visc)
         if abs(fm) < tol or (mu_hi - mu_lo) < 1e-15 * mu_hi:
             return True, mu, t, sig
         if fm > 0.0:
@@ -192,9 +153,14 @@ def _return_mapping(f_tr, tol, bound, c_eig, k_fac, t_tr, lu, evp_n, xs, ys, ds,
 
 @_inner
 def _rm_phi_slope(mu, c_eig, k_fac, t_tr, mt_tr, lu, evp_n, xs, ys, ds, pt, alpha, visc):
-    """Yield value after a return of size ``mu`` (as :func:`_rm_phi`) and its slope.
+    """Yield value after a return of size ``mu``, and its slope.
 
-    With ``A = I + mu M``, ``M = C K``: ``T = A^-1 T_tr`` and, as ``A^-1`` and ``M``
+    The flow is radial in the rotated Cauchy stress (``dg m = mu sigma``), so for a
+    given ``mu`` the update ``T = T_tr - mu C K T`` is linear: ``T = A^-1 T_tr`` with
+    ``A = I + mu M``, ``M = C K``, ``K = diag(kappa)``. With viscous regularisation
+    (``visc = eta / dt > 0``, Duvaut-Lions/Perzyna overstress) the value is
+    ``f - visc * dgamma`` with ``dgamma = 2/3 mu g``, ``g = sqrt(3/2 sigma : sigma)``.
+    As ``A^-1`` and ``M``
     commute, ``M T = A^-1 M T_tr`` (the second right-hand side) and ``dT/dmu = -A^-1
     M T`` (a solve with the kept factors). The slope follows by the chain rule
     through ``sigma = K T``, ``evp = evp_n - mu tr(sigma)`` and the hardening curve.
@@ -370,7 +336,7 @@ def _foam_return(c, q, ep_n, evp_n, pc_n, cel, measure, props, xs, ys, ds, pc_sl
         rot: (6, 6) output: Mandel rotation of the eigenframe.
         cr: (6, 6) scratch.
         c_eig: (6, 6) output: stiffness in the eigenframe.
-        lu: (6, 7) scratch for the linear solves.
+        lu: (6, 10) scratch for the linear solves.
 
     Returns:
         (status, S-scalings, sigma-scalings, stress T, rotated Cauchy stress sigma,

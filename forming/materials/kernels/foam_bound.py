@@ -75,7 +75,7 @@ def _phi_surely_positive(mu, bound):
 
     The margin (1e-8 of the magnitudes involved) exceeds by far the round-off of
     the floating-point ``phi``, so a positive answer means that
-    :func:`_rm_phi` would return a positive value.
+    :func:`~.foam._rm_phi_slope` would return a positive value.
 
     Args:
         mu: Return size.

@@ -2,10 +2,10 @@
 
 :func:`eig_sym3` diagonalises the right Cauchy-Green tensors of all the stress
 updates of a point at once by cyclic Jacobi rotations (numba's ``np.linalg`` needs
-a BLAS the stack does not ship); :func:`_solve6` is the Gaussian elimination of the
-return mapping's linear systems, :func:`_lu_solve6x2` and :func:`_lu_resolve6` the same
-with the factors kept (the return's Newton slope needs a second solve). All work in
-place on caller-provided arrays.
+a BLAS the stack does not ship); :func:`_lu_solve6x2` is the Gaussian elimination of
+the return mapping's linear systems, with its factors kept for :func:`_lu_resolve6`
+(the return's Newton slope needs a second solve). All work in place on
+caller-provided arrays.
 """
 
 from __future__ import annotations
@@ -85,44 +85,13 @@ def eig_sym3(a, n, m, q, active, turn, cs):
 
 
 @_inner
-def _solve6(m):
-    """Solve a 6x6 system in place by Gaussian elimination with partial pivoting.
-
-    Entries below the diagonal are left stale once eliminated (never read again).
-
-    Args:
-        m: (6, 7) augmented matrix ``[A | b]``, overwritten by its elimination;
-            column 6 receives the solution (the partly eliminated ``b`` if ``A`` is
-            singular).
-
-    Returns:
-        False if a zero pivot was met.
-    """
-    for k in range(6):
-        p = k
-        best = abs(m[k, k])
-        for i in range(k + 1, 6):
-            if abs(m[i, k]) > best:
-                best = abs(m[i, k])
-                p = i
-        if best == 0.0:
-            return False
-        if p != k:
-            for j in range(k, 7):
-                tmp = m[k, j]
-                m[k, j] = m[p, j]
-                m[p, j] = tmp
-        for i in range(k + 1, 6):
-            f = m[i, k] / m[k, k]
-            if f != 0.0:
-                for j in range(k + 1, 7):
-                    m[i, j] -= f * m[k, j]
+def _back_substitute6(m, c):
+    """Back substitution with the upper factor in ``m[:, :6]`` for column ``c``, in place."""
     for k in range(5, -1, -1):
-        s = m[k, 6]
+        s = m[k, c]
         for j in range(k + 1, 6):
-            s -= m[k, j] * m[j, 6]
-        m[k, 6] = s / m[k, k]
-    return True
+            s -= m[k, j] * m[j, c]
+        m[k, c] = s / m[k, k]
 
 
 @_inner
@@ -133,7 +102,7 @@ def _lu_solve6x2(m):
         m: (6, >= 9): ``[A | b1 | b2 | .]``, overwritten: the unit lower factor's
             multipliers below the diagonal, the upper factor on and above it (of the
             rows permuted), columns 6 and 7 the solutions, column 8 the row each
-            pivot came from. Column 6 receives exactly what :func:`_solve6` gives.
+            pivot came from.
 
     Returns:
         False if a zero pivot was met.
@@ -159,12 +128,8 @@ def _lu_solve6x2(m):
             if f != 0.0:
                 for j in range(k + 1, 8):
                     m[i, j] -= f * m[k, j]
-    for c in range(6, 8):
-        for k in range(5, -1, -1):
-            s = m[k, c]
-            for j in range(k + 1, 6):
-                s -= m[k, j] * m[j, c]
-            m[k, c] = s / m[k, k]
+    _back_substitute6(m, 6)
+    _back_substitute6(m, 7)
     return True
 
 
@@ -183,8 +148,4 @@ def _lu_resolve6(m):
             m[p, 9] = tmp
         for i in range(k + 1, 6):
             m[i, 9] -= m[i, k] * m[k, 9]
-    for k in range(5, -1, -1):
-        s = m[k, 9]
-        for j in range(k + 1, 6):
-            s -= m[k, j] * m[j, 9]
-        m[k, 9] = s / m[k, k]
+    _back_substitute6(m, 9)
