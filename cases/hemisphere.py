@@ -11,12 +11,14 @@ radii (10 mm) are estimates. The core is isotropic by default (the paper's Abaqu
 (``viscosity``, 0.15 MPa mm) lets Newton follow the softening curve, within about 2% of the
 rate-independent force (docs/validation.md).
 
-Contact numerics (``tool_stick``, ``auto`` chooses; the line search follows, and
-``newton.line_search`` overrides it): a transversely
-isotropic core hinges over the die edge on nodes at almost zero pressure, as the skins do
-on the tools; both then use Coulomb friction with elastic slip (stick stiffness
-proportional to the pressure) and full Newton steps. With the augmented stick constraint
-and backtracking the transverse core stalls in the first step (docs/theory.md, section 13).
+Contact numerics (``tool_stick``; ``newton.line_search`` overrides the line search that
+follows it): Coulomb friction with elastic slip (stick stiffness proportional to the
+pressure) and full Newton steps by default. Every variant has contact nodes at almost zero
+pressure (a flange clamped by the holder, a transverse core hinging over the die edge,
+skins on the tools), where the augmented stick constraint (``tool_stick=augmented``, with
+backtracking) makes them stick and slip from one Newton iteration to the next: the
+transverse core stalls in its first step (docs/theory.md, section 13), the isotropic core
+takes 2 to 4 times the iterations.
 
 ``--set skins=true``: the full sandwich, a core between two FCIM359 NCF skins (+/-45 deg,
 0.4 mm per ply) sliding on the core (0.52) and on the tools (0.23); the metrics add each
@@ -103,16 +105,28 @@ class Params:
     tool_max_size: float = 25.0  # surface-mesh tools: largest triangle on flat faces [mm]
 
 
-def hinges_at_zero_pressure(p: Params) -> bool:
-    """Whether many contact nodes sit at almost zero pressure through the stroke.
+def contact_numerics(p: Params) -> tuple[str, str]:
+    """The tool stick law (resolving ``auto``) and the Newton line search of the run.
 
-    Skins touch the tools and the core at zero pressure; a transversely isotropic core
-    (in-plane modulus 0.2 MPa, 75 times below its through-thickness modulus) hinges over
-    the die edge, its flange resting on the die (and under the holder) at almost zero
-    pressure. Such nodes need a stick stiffness that vanishes with the pressure (elastic
-    slip) and full Newton steps (docs/theory.md, sections 11 and 13).
+    ``auto`` is Coulomb friction with elastic slip (a stick stiffness proportional to the
+    pressure), and the line search follows the stick law: full Newton steps with elastic
+    slip, backtracking with the augmented stick constraint; ``--set
+    newton.line_search=...`` (every case's Newton setting) overrides it. Nodes at almost
+    zero pressure are in every variant: the skins touch the tools and the core at zero
+    pressure, a transversely isotropic core (in-plane modulus 0.2 MPa) hinges over the die
+    edge, and a blank holder clamps the flange between two tools. With the augmented
+    stick constraint such nodes stuck and slipped from one Newton iteration to the next:
+    the transverse core stalled in its first step (docs/theory.md, section 13), and the
+    isotropic core took 1,378 Newton iterations on the default mesh with the holder
+    (148 s) against 379 (39 s) with elastic slip, 788 against 438 without it
+    (docs/performance.md). Skins sliding finitely take PETSc's ``l2`` line search: on the
+    default mesh without a holder, full steps cut back 10 times and stopped at 47.3 mm,
+    ``l2`` cut back 3 times and completed (docs/theory.md, section 11).
     """
-    return p.skins or p.elasticity == "transverse"
+    stick = "elastic_slip" if p.tool_stick == "auto" else p.tool_stick
+    if p.skins and p.skin_contact == "finite":
+        return stick, "l2"
+    return stick, "basic" if stick == "elastic_slip" else "bt"
 
 
 def skin_smoothing(p: Params) -> float:
@@ -129,22 +143,6 @@ def skin_smoothing(p: Params) -> float:
     return 0.1 if p.skin_contact == "finite" else 0.0
 
 
-def contact_numerics(p: Params) -> tuple[str, str]:
-    """The tool stick law (resolving ``auto``) and the Newton line search of the run.
-
-    ``--set newton.line_search=...`` (every case's Newton setting) overrides the latter.
-    Skins sliding finitely take PETSc's ``l2`` line search: on the default mesh without
-    a holder, full steps cut back 10 times and stopped at 47.3 mm, ``l2`` cut back 3
-    times and completed (docs/theory.md, section 11).
-    """
-    soft = hinges_at_zero_pressure(p)
-    stick = p.tool_stick if p.tool_stick != "auto" else (
-        "elastic_slip" if soft else "augmented")
-    if p.skins and p.skin_contact == "finite":
-        return stick, "l2"
-    return stick, "basic" if soft else "bt"
-
-
 def build(p: Params) -> Job:
     require(p, positive=("size", "thickness", "punch_diameter", "die_diameter", "stroke")
             + (("tool_penalty",) if p.tool_penalty is not None else ()),
@@ -159,8 +157,6 @@ def build(p: Params) -> Job:
                   p.skin_refinement, p.skin_transfer) if p.skins else None
     b = rectangular_blank(half, half, p.thickness, p.cells, honeycomb_core(
         p.elasticity, curve=p.curve, viscosity=p.viscosity), skins, p.grading)
-    # nodes at zero pressure (fabric on tools, a transverse core's flange): elastic-slip
-    # stick (the augmented stick constraint cycled there) and full Newton steps
     stick, search = contact_numerics(p)
     tools, contacts = hemisphere_tools(
         b, p.punch_diameter, p.die_diameter, p.edge_radius, p.stroke,
