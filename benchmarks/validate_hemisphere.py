@@ -7,8 +7,10 @@
    to 0 where Newton still converges; the force extrapolated linearly to eta = 0 from the
    two smallest eta, and each run's error against it. A ``forming study`` in
    ``results/validate_hemisphere/eta`` (a rerun reuses its finished runs).
+3. The default mesh along four Newton paths (tool stick law x line search), both variants:
+   which figures the path moves (``results/validate_hemisphere/paths``).
 
-Run: ``python benchmarks/validate_hemisphere.py`` (about 15 minutes on 2 cores).
+Run: ``python benchmarks/validate_hemisphere.py`` (about 20 minutes on 2 cores).
 """
 
 from __future__ import annotations
@@ -34,6 +36,83 @@ def _row(holder: bool, s: dict) -> str:
             f"| {m['punch_gap_max_mm']:.2f} "
             f"| {m['max_penetration_mm']:.3f} / {m['penetration_tolerance_mm']:.3f} "
             f"| {s['timing']['newton_per_step']:.1f} | {s['timing']['wall_s']:.0f} |")
+
+
+def _paths() -> list[str]:
+    """Part 3: the default mesh along four Newton paths (stick law x line search).
+
+    Each combination converges every step to the same tolerances; they differ in the
+    iterates Newton passes through, which a softening core can follow to different crushed
+    states. Which figures move with the path, and by how much, says which of them the
+    default mesh resolves.
+    """
+    runs = study_runs("hemisphere", {"blank_holder": (False, True),
+                                     "tool_stick": ("augmented", "elastic_slip"),
+                                     "newton.line_search": ("bt", "basic")},
+                      REPO / "results" / "validate_hemisphere" / "paths", jobs=2)
+    lines = ["### The same mesh along four Newton paths", "",
+             "The default mesh with each tool stick law (augmented stick constraint, or "
+             "elastic slip: docs/theory.md, sections 9 and 13) and each line search "
+             "(backtracking, or full Newton steps); the case's default is elastic slip with "
+             "full steps. Every step converges to the same tolerances; the runs differ in the "
+             "iterates Newton passes through. A `forming study` in "
+             "`results/validate_hemisphere/paths`, two runs at a time (wall times are "
+             "therefore not those of a run alone).", "",
+             "| blank holder | stick | line search | status | punch force max [N] "
+             "| crushed volume [mm^3] | under punch [mm^3] | mean crushing strain under punch "
+             "| crushing strain max | edge lift [mm] | Newton/step | wall [s] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    spread: dict[str, dict[bool, list[float]]] = {}
+    for row, s in runs:
+        v, m = row.values, s.get("metrics", {})
+        if s.get("status") != "completed":
+            lines.append(f"| {v['blank_holder']} | {v['tool_stick']} "
+                         f"| {v['newton.line_search']} | {s.get('status', 'no summary')} "
+                         "| | | | | | | | |")
+            continue
+        holder = v["blank_holder"] == "True"
+        for key in ("punch_force_max_N", "crushed_volume_mm3",
+                    "crushed_volume_under_punch_mm3", "crushing_strain_mean_under_punch"):
+            spread.setdefault(key, {}).setdefault(holder, []).append(m[key])
+        lines.append(f"| {v['blank_holder']} | {v['tool_stick']} | {v['newton.line_search']} "
+                     f"| {s['status']} | {m['punch_force_max_N']:.1f} "
+                     f"| {m['crushed_volume_mm3']:.0f} "
+                     f"| {m['crushed_volume_under_punch_mm3']:.0f} "
+                     f"| {m['crushing_strain_mean_under_punch']:.5f} "
+                     f"| {m['crushing_strain_max']:.3f} | {m['edge_lift_max_mm']:.2f} "
+                     f"| {s['timing']['newton_per_step']:.2f} | {s['timing']['wall_s']:.0f} |")
+    names = {"punch_force_max_N": ("punch force max", "N", ".1f"),
+             "crushed_volume_mm3": ("crushed volume", "mm^3", ".0f"),
+             "crushed_volume_under_punch_mm3": ("crushed volume under the punch", "mm^3",
+                                                ".0f"),
+             "crushing_strain_mean_under_punch": ("mean crushing strain under the punch", "",
+                                                  ".5f")}
+    lines += ["", "Range over the completed paths (smallest to largest):", ""]
+    for key, by_holder in spread.items():
+        label, unit, f = names[key]
+        parts = [f"{'with' if h else 'without'} holder {min(vals):{f}} to {max(vals):{f}}"
+                 f"{' ' + unit if unit else ''}" for h, vals in sorted(by_holder.items())]
+        lines.append(f"- {label}: " + "; ".join(parts) + ".")
+    key = "crushed_volume_under_punch_mm3"
+    pairs = {}
+    for row, s in runs:
+        if s.get("status") == "completed":
+            v = row.values
+            pairs.setdefault((v["tool_stick"], v["newton.line_search"]), {})[
+                v["blank_holder"] == "True"] = s["metrics"][key]
+    both = [p for p in pairs.values() if len(p) == 2]
+    more = sum(p[True] > p[False] for p in both)
+    lines += ["", f"More crushed volume under the punch with the holder than without on "
+              f"{more} of the {len(both)} paths completed in both variants. The punch "
+              "force, the whole crushed volume, the largest crushing strain and the edge "
+              "lift hardly move with the path, and each says what the paper finds: with "
+              "the holder the core crushes more and its edge stays down. The crushing under "
+              "the punch does not resolve on this mesh: it is a few cells near the "
+              "threshold strain (0.01), the mean crushing strain there is below 0.001 in "
+              "every run, and its ranges with and without the holder overlap. On the "
+              "12 x 12 x 3 mesh both stick laws give the same figure (docs/validation.md, "
+              "transverse core section: 4961 against 3912 mm^3)."]
+    return lines
 
 
 def main() -> None:
@@ -109,7 +188,8 @@ def main() -> None:
                              "| | | |")
     lines += ["", "Negative volumetric plastic strain is plastic dilation: on the tension side "
               "of the bend the isotropic core reaches the foam's low tensile yield (kt = 0.1), "
-              "which is also where the viscous overstress acts most."]
+              "which is also where the viscous overstress acts most.", ""]
+    lines += _paths()
     update_section("hemisphere", "\n".join(lines), REPO / "docs" / "validation.md")
     print("\n".join(lines))
 

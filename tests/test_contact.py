@@ -328,13 +328,23 @@ def test_square_punch_crushing_runs_to_full_stroke(tmp_path):
 
 @pytest.mark.slow
 def test_hemisphere_holder_increases_crushing_default_mesh(tmp_path):
-    """Default mesh (20 x 20 x 4): the blank holder increases the crushed volume under the
-    punch and suppresses the edge lift (paper, Fig. 11); ``scripts/dev.sh validate``."""
+    """Default mesh (20 x 20 x 4): the blank holder at least doubles the crushed volume,
+    raises the largest crushing strain by half and suppresses the edge lift (paper,
+    Fig. 11); ``scripts/dev.sh validate``.
+
+    Measured over four Newton paths (docs/validation.md, "The same mesh along four Newton
+    paths"): crushed volume 54843-57900 against 22113-23810 mm^3, largest crushing strain
+    0.306-0.315 against 0.157-0.159, edge lift 0 against 13.9-14.1 mm. The crushed
+    volume *under the punch* is not asserted: on this mesh it moves with the Newton path
+    (1709-3546 against 609-2978 mm^3), and the default path gives less with the holder.
+    A failure here means the holder no longer constrains the core's bending.
+    """
     from forming.case import run_case
 
     free = run_case("hemisphere", tmp_path / "free", ["blank_holder=false"])["metrics"]
     held = run_case("hemisphere", tmp_path / "held", ["blank_holder=true"])["metrics"]
-    assert held["crushed_volume_under_punch_mm3"] > free["crushed_volume_under_punch_mm3"]
+    assert held["crushed_volume_mm3"] > 2.0 * free["crushed_volume_mm3"]
+    assert held["crushing_strain_max"] > 1.5 * free["crushing_strain_max"]
     assert free["edge_lift_max_mm"] > 5.0 > 0.1 > held["edge_lift_max_mm"]
 
 
