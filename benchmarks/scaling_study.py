@@ -48,6 +48,8 @@ def main() -> None:
     parser.add_argument("--max-step", type=float, default=0.05,
                         help="largest load step (fraction of the stroke)")
     parser.add_argument("--json", type=Path, default=None, help="also write the rows here")
+    parser.add_argument("--section", default="scaling",
+                        help="docs/performance.md section to write (default: scaling)")
     parser.add_argument("--rows", type=Path, default=None,
                         help="write the section from rows printed by an earlier run (one "
                              "JSON object per line) instead of running")
@@ -150,7 +152,7 @@ def write_section(args, rows: list[dict]) -> None:
                              f"{newton_seconds(pair[1]) / newton_seconds(pair[2]):.2f}"
                              + ("" if same else " (the Newton iteration counts differ)")
                              + ".")
-    update_section("scaling", "\n".join(lines), REPO / "docs" / "performance.md")
+    update_section(args.section, "\n".join(lines), REPO / "docs" / "performance.md")
     print("\n".join(lines))
 
 
