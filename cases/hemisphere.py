@@ -118,7 +118,7 @@ def contact_numerics(p: Params) -> tuple[str, str]:
     stick constraint such nodes stuck and slipped from one Newton iteration to the next:
     the transverse core stalled in its first step (docs/theory.md, section 13), and the
     isotropic core took 1,378 Newton iterations on the default mesh with the holder
-    (148 s) against 379 (39 s) with elastic slip, 788 against 438 without it
+    (148 s) against 379 (42 s) with elastic slip, 788 against 438 without it
     (docs/performance.md). Skins sliding finitely take PETSc's ``l2`` line search: on the
     default mesh without a holder, full steps cut back 10 times and stopped at 47.3 mm,
     ``l2`` cut back 3 times and completed (docs/theory.md, section 11).
