@@ -37,6 +37,7 @@ from forming.errors import InputError
 from forming.job import Job, Response
 from forming.materials.library import honeycomb_core
 from forming.mesh import box
+from forming.partition import mesh_partition
 from forming.scene import Body, Contact, Displacement, Linear, Scene, Tool
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
@@ -61,6 +62,7 @@ class Params:
     viscosity: float = 0.03  # viscous regularisation [MPa mm] (docs/theory.md)
     max_step: float = 0.1  # largest load step (fraction of the stroke)
     linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
+    partition: Literal["auto", "graph", "wedge"] = "auto"  # ranks' cells; auto: wedge if explicit
 
 
 def build(p: Params) -> Job:
@@ -70,7 +72,7 @@ def build(p: Params) -> Job:
         raise InputError("--set punch" if p.punch > p.size else "--set stroke",
                          "the punch must fit the core and the stroke stay below its thickness")
     half, h = p.size / 2, p.thickness
-    mesh = box((half, half, h), tuple(p.cells))
+    mesh = box((half, half, h), tuple(p.cells), partition=mesh_partition(p.partition))
     tall = 100.0
     punch = RoundedBox((0.0, 0.0, h + p.gap + tall), (p.punch / 2, p.punch / 2, tall), p.fillet)
     scene = Scene(

@@ -58,6 +58,7 @@ from forming.errors import InputError
 from forming.job import Job, Response
 from forming.materials.fabric import NonCrimpFabric
 from forming.materials.library import honeycomb_core
+from forming.partition import mesh_partition
 from forming.scene import Scene
 from forming.solver.options import ExplicitOptions, NewtonOptions
 from forming.solver.stepping import StepControl
@@ -103,6 +104,7 @@ class Params:
     tools: Literal["analytic", "stl", "step"] = "analytic"  # tools: formulas or surface meshes
     tool_angle: float = 5.0  # surface-mesh tools: largest angle per triangle on curved faces [deg]
     tool_max_size: float = 25.0  # surface-mesh tools: largest triangle on flat faces [mm]
+    partition: Literal["auto", "graph", "wedge"] = "auto"  # ranks' cells; auto: wedge if explicit
 
 
 def contact_numerics(p: Params) -> tuple[str, str]:
@@ -156,7 +158,8 @@ def build(p: Params) -> Job:
                   p.skin_stabilisation, skin_smoothing(p), p.skin_contact,
                   p.skin_refinement, p.skin_transfer) if p.skins else None
     b = rectangular_blank(half, half, p.thickness, p.cells, honeycomb_core(
-        p.elasticity, curve=p.curve, viscosity=p.viscosity), skins, p.grading)
+        p.elasticity, curve=p.curve, viscosity=p.viscosity), skins, p.grading,
+        mesh_partition(p.partition))
     stick, search = contact_numerics(p)
     tools, contacts = hemisphere_tools(
         b, p.punch_diameter, p.die_diameter, p.edge_radius, p.stroke,

@@ -13,6 +13,7 @@ from typing import Literal
 from forming.errors import InputError
 from forming.materials.fabric import NonCrimpFabric
 from forming.mesh import Block, MeshData, blocks, box
+from forming.partition import Partition
 from forming.scene import Body, Displacement, Interface, Sliding
 
 SKINS = ("skin_bottom", "skin_top")
@@ -129,7 +130,8 @@ class Skins:
 
 
 def rectangular_blank(half_x: float, half_y: float, thickness: float, cells: tuple[int, ...],
-                      core, skins: Skins | None = None, grading: float = 1.0) -> Blank:
+                      core, skins: Skins | None = None, grading: float = 1.0,
+                      partition: Partition = "graph") -> Blank:
     """A quarter of a rectangular blank, ``[0, half_x] x [0, half_y]``: core or sandwich.
 
     Args:
@@ -140,15 +142,17 @@ def rectangular_blank(half_x: float, half_y: float, thickness: float, cells: tup
         core: The core's material.
         skins: Skins on both faces; None: the core alone.
         grading: In-plane element growth away from the centre (core alone only).
+        partition: How the cells are shared among the ranks (:mod:`forming.partition`).
 
     Raises:
         InputError: With skins, ``cells`` does not give square elements in plane.
     """
     if skins is None:
-        mesh = box((half_x, half_y, thickness), tuple(cells), grading=(grading, grading, 1.0))
+        mesh = box((half_x, half_y, thickness), tuple(cells), grading=(grading, grading, 1.0),
+                   partition=partition)
         return core_blank(mesh, core, thickness)
     if skins.contact == "finite":
-        return _sliding_sandwich(half_x, half_y, thickness, cells, core, skins)
+        return _sliding_sandwich(half_x, half_y, thickness, cells, core, skins, partition)
     element = half_x / cells[0]
     if round(half_y / element) != cells[1]:
         raise InputError("cells", f"with skins the in-plane mesh is square: got {cells}")
@@ -156,13 +160,13 @@ def rectangular_blank(half_x: float, half_y: float, thickness: float, cells: tup
 
     mesh = sandwich_blank(Outline.rectangle(half_x, half_y), core_thickness=thickness,
                           skin_thickness=skins.fabric.thickness, plies=skins.plies,
-                          element_size=element, core_layers=cells[2])
+                          element_size=element, core_layers=cells[2], partition=partition)
     return sandwich(mesh, core, skins.fabric, thickness, skins.plies, friction=skins.friction,
                     stabilisation=skins.stabilisation, smoothing=skins.smoothing)
 
 
 def _sliding_sandwich(half_x: float, half_y: float, thickness: float, cells, core,
-                      skins: Skins) -> Blank:
+                      skins: Skins, partition: Partition = "graph") -> Blank:
     """Core and skins as separate blocks (no shared nodes), the skins sliding on the core."""
     t = skins.plies * skins.fabric.thickness
     r = int(skins.refinement)
@@ -172,7 +176,7 @@ def _sliding_sandwich(half_x: float, half_y: float, thickness: float, cells, cor
         Block("core", (half_x, half_y, thickness), (nx, ny, nz), origin=(0.0, 0.0, t)),
         Block("skin_top", (half_x, half_y, t), (r * nx, r * ny, skins.plies),
               origin=(0.0, 0.0, t + thickness)),
-    ])
+    ], partition=partition)
     return _sliding_blank(mesh, thickness, core, skins)
 
 

@@ -57,14 +57,39 @@ if _ver != REQUIRED:
     )
 
 
-def model_to_mesh(model, comm, rank: int = 0, gdim: int = 3):
+def model_to_mesh(model, comm, rank: int = 0, gdim: int = 3, partition: str = "graph"):
     """Convert a gmsh model into a DOLFINx mesh whose interior facets are ghosted.
 
+    ``partition`` shares the cells among the ranks (:mod:`forming.partition`).
     Returns the ``MeshData`` of :func:`dolfinx.io.gmsh.model_to_mesh` (mesh, cell_tags,
     facet_tags, physical_groups, ...).
     """
+    from forming import partition as part
+
+    part.check(partition)
+    if comm.size == 1:  # one rank holds every cell, whatever the partition
+        partition = "graph"
+    centroids = None
+    if partition != "graph":
+        centroids = _gmsh_cell_centres(model) if comm.rank == rank else np.zeros((0, 3))
     return dolfinx.io.gmsh.model_to_mesh(model, comm, rank, gdim=gdim,
-                                         partitioner=_shared_facet_partitioner())
+                                         partitioner=part.cell_partitioner(partition, centroids))
+
+
+def _gmsh_cell_centres(model) -> np.ndarray:
+    """Centres of a gmsh model's cells in the order :func:`model_to_mesh` passes them on."""
+    from forming.errors import InputError
+
+    x = dolfinx.io.gmsh.extract_geometry(model)
+    topologies, _groups = dolfinx.io.gmsh.extract_topology_and_markers(model)
+    dims = {t: model.mesh.getElementProperties(t)[1] for t in topologies}
+    tdim = max(dims.values())
+    cells = [t for t, d in dims.items() if d == tdim]
+    if len(cells) != 1:
+        raise InputError("partition", f"a wedge partition needs one cell type, the mesh has "
+                         f"{len(cells)}")
+    topo = np.asarray(topologies[cells[0]]["topology"], dtype=np.int64)
+    return x[topo].mean(axis=1)
 
 
 def _shared_facet_partitioner():

@@ -12,6 +12,7 @@ from mpi4py import MPI
 from forming import compat
 from forming.errors import InputError
 from forming.parallel import on_root
+from forming.partition import Partition
 
 
 @dataclass(frozen=True)
@@ -73,9 +74,12 @@ class MeshData:
         return msh.comm.allreduce(local, op=MPI.MIN)
 
 
-def mesh_from_gmsh(gmsh, comm) -> MeshData:
-    """The DOLFINx mesh, tags and group names of the current gmsh model."""
-    data = compat.model_to_mesh(gmsh.model, comm, 0, gdim=3)
+def mesh_from_gmsh(gmsh, comm, partition: Partition = "graph") -> MeshData:
+    """The DOLFINx mesh, tags and group names of the current gmsh model.
+
+    ``partition`` shares the cells among the ranks (:mod:`forming.partition`).
+    """
+    data = compat.model_to_mesh(gmsh.model, comm, 0, gdim=3, partition=partition)
     names = {name: (pg.dim, pg.tag) for name, pg in data.physical_groups.items()}
     return MeshData(data.mesh, data.cell_tags, data.facet_tags, names)
 
@@ -157,17 +161,18 @@ def _warp(gmsh, vol: int, block: Block) -> None:
         gmsh.model.mesh.setNode(int(t), p.tolist(), [])
 
 
-def blocks(parts: list[Block], comm: MPI.Comm = MPI.COMM_WORLD) -> MeshData:
+def blocks(parts: list[Block], comm: MPI.Comm = MPI.COMM_WORLD,
+           partition: Partition = "graph") -> MeshData:
     """Disjoint structured blocks in one mesh, each meshed on its own.
 
     Blocks that touch share no nodes (their meshes need not match): two bodies in
     contact with finite sliding, such as a fabric layer on a core. Groups: each block's
     volume by its name and its faces as ``<name>_<face>`` (faces ``xmin, xmax, ymin,
-    ymax, bottom, top``).
+    ymax, bottom, top``). ``partition``: :mod:`forming.partition`.
     """
     if len({b.name for b in parts}) != len(parts):
         raise InputError("mesh.blocks", "block names must be distinct")
-    return _generate(parts, comm, prefix=True)
+    return _generate(parts, comm, prefix=True, partition=partition)
 
 
 def box(
@@ -177,6 +182,7 @@ def box(
     name: str = "core",
     comm: MPI.Comm = MPI.COMM_WORLD,
     grading: tuple[float, float, float] = (1.0, 1.0, 1.0),
+    partition: Partition = "graph",
 ) -> MeshData:
     """Structured hexahedral block with faces ``xmin, xmax, ymin, ymax, bottom, top``.
 
@@ -188,11 +194,14 @@ def box(
         comm: Communicator of the mesh.
         grading: Per-axis ratio of consecutive cell sizes along +x, +y, +z (1: uniform;
             > 1 refines towards the low side, < 1 towards the high side).
+        partition: How the cells are shared among the ranks (:mod:`forming.partition`).
     """
-    return _generate([Block(name, size, cells, origin, grading)], comm, prefix=False)
+    return _generate([Block(name, size, cells, origin, grading)], comm, prefix=False,
+                     partition=partition)
 
 
-def _generate(parts: list[Block], comm: MPI.Comm, prefix: bool) -> MeshData:
+def _generate(parts: list[Block], comm: MPI.Comm, prefix: bool,
+              partition: Partition = "graph") -> MeshData:
     import gmsh
 
     initialised = gmsh.isInitialized()
@@ -219,7 +228,7 @@ def _generate(parts: list[Block], comm: MPI.Comm, prefix: bool) -> MeshData:
 
     try:
         on_root(comm, build, gmsh_field="mesh")
-        return mesh_from_gmsh(gmsh, comm)
+        return mesh_from_gmsh(gmsh, comm, partition)
     finally:
         gmsh.model.remove()
         if not initialised:

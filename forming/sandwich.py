@@ -27,6 +27,7 @@ from forming.errors import InputError
 from forming.mesh import MeshData, mesh_from_gmsh
 from forming.outline import Outline, check_integer, check_positive
 from forming.parallel import on_root
+from forming.partition import Partition
 
 log = logging.getLogger(__name__)
 
@@ -207,6 +208,7 @@ def sandwich_blank(
     structured: bool | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
     name: str = "sandwich",
+    partition: Partition = "graph",
 ) -> SandwichMesh:
     """Hexahedral mesh of a core between a bottom and a top skin of ``plies`` plies each.
 
@@ -237,6 +239,7 @@ def sandwich_blank(
             convex quadrilateral. True needs a convex 4-corner polygon.
         comm: Communicator of the mesh (built on rank 0, then distributed).
         name: Name of the gmsh model.
+        partition: How the cells are shared among the ranks (:mod:`forming.partition`).
 
     Returns:
         The mesh, its tags and its named groups.
@@ -295,7 +298,7 @@ def sandwich_blank(
                         gmsh_field="mesh.outline")
         facet_groups, unions = built if built is not None else ({}, {})
         facet_groups, unions = comm.bcast((facet_groups, unions), root=0)
-        md = mesh_from_gmsh(gmsh, comm)
+        md = mesh_from_gmsh(gmsh, comm, partition)
     finally:
         gmsh.model.remove()
         for k, v in saved.items():
