@@ -111,8 +111,9 @@ def write_section(args, rows: list[dict]) -> None:
     """The table, the fitted exponents and the 2-rank speed-ups, into performance.md."""
     lines = [
         f"Measured with `python benchmarks/scaling_study.py "
-        f"--meshes {' '.join(args.meshes)} --stroke {args.stroke:g} --max-step "
-        f"{args.max_step:g}` on {machine()}: `hemisphere --set skins=true --set "
+        f"--meshes {' '.join(args.meshes)} --solvers {' '.join(args.solvers)} --stroke "
+        f"{args.stroke:g} --max-step {args.max_step:g}` on {machine()}: `hemisphere --set "
+        f"skins=true --set "
         f"blank_holder=true`, the first {args.stroke:g} mm of the stroke. Per-iteration "
         f"times are rank means [ms].", "",
         "| mesh | unknowns | solver | ranks | status | wall [s] | in Newton [s] | steps "
@@ -152,8 +153,31 @@ def write_section(args, rows: list[dict]) -> None:
                              f"{newton_seconds(pair[1]) / newton_seconds(pair[2]):.2f}"
                              + ("" if same else " (the Newton iteration counts differ)")
                              + ".")
+    lines += _against_mumps(args, rows)
     update_section(args.section, "\n".join(lines), REPO / "docs" / "performance.md")
     print("\n".join(lines))
+
+
+def _against_mumps(args, rows: list[dict]) -> list[str]:
+    """Each other solver's Newton time, linear solve and memory over MUMPS's, per run."""
+    out = []
+    for cells in args.meshes:
+        for ranks in args.ranks:
+            runs = {r["solver"]: r for r in rows if r["cells"] == cells
+                    and r["ranks"] == ranks and r["status"] == "completed"}
+            base = runs.get("mumps")
+            for solver, r in runs.items():
+                if base is None or solver == "mumps":
+                    continue
+                same = "" if r["newton"] == base["newton"] else \
+                    f" ({r['newton']} Newton iterations against {base['newton']})"
+                solve = r["split_ms"]["linear_solve"] / base["split_ms"]["linear_solve"]
+                out.append(
+                    f"- {cells}, {ranks} rank(s): {solver} takes "
+                    f"{newton_seconds(r) / newton_seconds(base):.2f} of MUMPS's time in "
+                    f"Newton, {solve:.2f} of its linear solve per iteration and "
+                    f"{r['peak_rss_mb'] / base['peak_rss_mb']:.2f} of its peak memory{same}.")
+    return out
 
 
 if __name__ == "__main__":

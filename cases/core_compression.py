@@ -44,7 +44,7 @@ class Params:
     modulus: float | None = None  # through-thickness modulus [MPa]; none: shipped (15)
     elastic_band: float = 0.05  # curve points this close to the elastic line are on it
     max_step: float = 0.05  # largest load step (fraction of the stroke)
-    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
+    linear_solver: Literal["auto", "mumps", "mumps_blr", "gamg"] = "auto"  # linear solver
     extrapolate: bool = False  # allow strains past the curve's last point
 
 

@@ -61,7 +61,7 @@ class Params:
     curve: str | None = None  # C365 curve CSV; none: shipped estimate
     viscosity: float = 0.03  # viscous regularisation [MPa mm] (docs/theory.md)
     max_step: float = 0.1  # largest load step (fraction of the stroke)
-    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
+    linear_solver: Literal["auto", "mumps", "mumps_blr", "gamg"] = "auto"  # linear solver
     partition: Literal["auto", "graph", "wedge"] = "auto"  # ranks' cells; auto: wedge if explicit
 
 

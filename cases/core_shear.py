@@ -44,7 +44,7 @@ class Params:
     cells: tuple[int, ...] = (48, 2, 4)  # elements along x, y, z
     shear_strain: float = 0.02  # engineering shear strain reached
     elasticity: Literal["transverse", "isotropic"] = "transverse"  # core elasticity
-    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
+    linear_solver: Literal["auto", "mumps", "mumps_blr", "gamg"] = "auto"  # linear solver
 
 
 def build(p: Params) -> Job:

@@ -42,7 +42,7 @@ class Params:
     cells: tuple[int, ...] = (6, 2, 2)  # elements along x, y, z
     strain: float = 0.32  # nominal strain reached
     elasticity: Literal["transverse", "isotropic"] = "transverse"  # core elasticity
-    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
+    linear_solver: Literal["auto", "mumps", "mumps_blr", "gamg"] = "auto"  # linear solver
 
 
 def build(p: Params) -> Job:

@@ -74,7 +74,7 @@ class Params:
     viscosity: float = 0.15  # core viscous regularisation [MPa mm]
     max_step: float = 0.01  # largest load step (fraction of the stroke)
     min_step: float = 1e-4  # smallest load step
-    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
+    linear_solver: Literal["auto", "mumps", "mumps_blr", "gamg"] = "auto"  # linear solver
 
 
 def build(p: Params) -> Job:

@@ -88,7 +88,7 @@ class Params:
     viscosity: float = 0.15  # viscous regularisation [MPa mm] (docs/theory.md)
     max_step: float = 0.01  # largest load step (fraction of the stroke)
     min_step: float = 1e-4  # smallest load step
-    linear_solver: Literal["mumps", "gamg"] = "mumps"  # linear solver
+    linear_solver: Literal["auto", "mumps", "mumps_blr", "gamg"] = "auto"  # linear solver
     skins: bool = False  # the sandwich: NCF skins on both faces, sliding on the core
     plies: int = 1  # plies per skin
     skin_thickness: float = 0.4  # ply thickness [mm]

@@ -122,6 +122,8 @@ def test_case_parameters_out_of_range(tmp_path):
             run_case(case, tmp_path / case, [assignment])
     with pytest.raises(InputError, match=r"newton.force_rtol|solver.force_rtol"):
         NewtonOptions(force_rtol=-1.0)
+    with pytest.raises(InputError, match=r"solver.blr_tolerance"):
+        NewtonOptions(linear_solver="mumps_blr", blr_tolerance=0.0)
 
 
 def test_affine_displacement_components():

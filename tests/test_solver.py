@@ -100,22 +100,41 @@ def test_multipliers_inside_newton_equal_uzawa(tmp_path):
             np.testing.assert_array_equal(a[name], b[name], err_msg=name)
 
 
-@pytest.mark.parametrize("case", ["core_compression", "skin_sled"])
-def test_gamg_gives_the_direct_solvers_answer(case, tmp_path):
-    """GMRES + GAMG (rigid-body near-null space) converges to MUMPS's answer.
+def test_auto_linear_solver_follows_the_size():
+    """``auto`` is MUMPS's plain LU below the scaling study's crossing and its block
+    low-rank LU from there; a solver named explicitly is kept at any size. A failure
+    means a model gets a linear solver its size was not measured for."""
+    from forming.solver.options import BLR_FROM_UNKNOWNS, NewtonOptions
+
+    auto = NewtonOptions()
+    assert auto.linear_solver == "auto"
+    assert auto.for_size(BLR_FROM_UNKNOWNS - 1).linear_solver == "mumps"
+    assert auto.for_size(BLR_FROM_UNKNOWNS).linear_solver == "mumps_blr"
+    assert auto.for_size(BLR_FROM_UNKNOWNS).petsc_options()["mat_mumps_icntl_35"] == "2"
+    for named in ("mumps", "gamg", "mumps_blr"):
+        assert NewtonOptions(linear_solver=named).for_size(10**7).linear_solver == named
+
+
+@pytest.mark.parametrize(("case", "solver"), [("core_compression", "gamg"),
+                                              ("skin_sled", "gamg"),
+                                              ("skin_sled", "mumps_blr")])
+def test_iterative_solvers_give_the_direct_solvers_answer(case, solver, tmp_path):
+    """GMRES + GAMG (rigid-body near-null space), and GMRES on MUMPS's block low-rank
+    LU, converge to MUMPS's answer.
 
     ``core_compression`` is one body; ``skin_sled`` two (skin and core in one
     monolithic matrix, the modes of both moving together). GMRES stops at 1e-10
     relative, so the Newton iterates agree to about that: every force column within
     1e-8 of the largest force of the run. A failure means the near-null space is wrong for the
-    layout (GMRES then stalls) or the linear tolerance is too loose for Newton.
+    layout (GMRES then stalls), the compressed LU too coarse a preconditioner for 200
+    GMRES iterations, or the linear tolerance too loose for Newton.
     """
     from forming.case import run_case
 
-    for solver in ("mumps", "gamg"):
-        s = run_case(case, tmp_path / solver, [f"newton.linear_solver={solver}"])
+    for name in ("mumps", solver):
+        s = run_case(case, tmp_path / name, [f"newton.linear_solver={name}"])
         assert s["status"] == "completed", s["reason"]
-    a, b = history(tmp_path / "mumps"), history(tmp_path / "gamg")
+    a, b = history(tmp_path / "mumps"), history(tmp_path / solver)
     np.testing.assert_array_equal(a["newton_iterations"], b["newton_iterations"])
     forces = [n for n in a.dtype.names if n.startswith(("force_", "reaction_"))]
     scale = max(np.abs(a[n]).max() for n in forces)

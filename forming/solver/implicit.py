@@ -51,12 +51,14 @@ class ImplicitSolver:
 
     def __init__(self, model: Model, options: NewtonOptions | None = None):
         self.model = model
-        self.options = options or NewtonOptions()
+        bodies = list(model.bodies.values())
+        unknowns = sum(b.V.dofmap.index_map.size_global * b.V.dofmap.index_map_bs
+                       for b in bodies)
+        self.options = (options or NewtonOptions()).for_size(unknowns)
         self.prefix = f"forming{next(_ids) or ''}_"
         opts = self.options.petsc_options()
         cmdline = PETSc.Options()
         opts = {k: v for k, v in opts.items() if not cmdline.hasName(f"{self.prefix}{k}")}
-        bodies = list(model.bodies.values())
         self._bodies = bodies
         bcs = model.dirichlet.bcs
         if len(bodies) == 1:
@@ -367,7 +369,8 @@ class ImplicitSolver:
         ``linear_solve_s`` the rest of Newton (factorisation and solves, less the
         multiplier updates made inside it), ``contact_s`` the constraint checks and
         multiplier updates;
-        ``per_iteration_ms`` divides each by the Newton iterations.
+        ``per_iteration_ms`` divides each by the Newton iterations; ``linear_solver``
+        names the solver used (``auto`` chosen for the model's size).
         """
         comm = self.model.comm
 
@@ -382,7 +385,8 @@ class ImplicitSolver:
                  "linear_solve_s": mean(self._newton_s) - callbacks - inside,
                  "contact_s": contact}
         its = max(self._work_total, 1)
-        return {"newton_iterations": self._work_total,
+        return {"linear_solver": self.options.linear_solver,
+                "newton_iterations": self._work_total,
                 "newton_per_step": self._work_accepted / max(self._steps, 1),
                 "assembly_s": split["assembly_s"],
                 "newton_split_s": split,

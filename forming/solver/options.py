@@ -7,10 +7,16 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 from forming.errors import InputError
+
+LINEAR_SOLVERS = ("auto", "mumps", "mumps_blr", "gamg")
+# ``auto`` takes MUMPS with block low-rank compression from this many unknowns on. The
+# scaling study (docs/performance.md, sandwich under the hemisphere, serial): its linear
+# solve took 1.06 of the plain LU's time at 9,747 unknowns, 0.87 at 53,391, 0.45 at 212,097
+BLR_FROM_UNKNOWNS = 50_000
 
 
 @dataclass(frozen=True)
@@ -18,9 +24,17 @@ class NewtonOptions:
     """Newton and linear-solver settings.
 
     Attributes:
-        linear_solver: ``"mumps"`` (direct LU, default) or ``"gamg"`` (GMRES + smoothed
-            aggregation AMG with the model's rigid-body modes as near-null space, one
-            body or several: :mod:`.linear`).
+        linear_solver: ``"auto"`` (default: ``"mumps"`` below :data:`BLR_FROM_UNKNOWNS`
+            unknowns, ``"mumps_blr"`` from there, the crossing of the scaling study),
+            ``"mumps"`` (direct LU), ``"mumps_blr"`` (MUMPS with
+            block low-rank compression at ``blr_tolerance``, a cheaper and approximate
+            LU, as the preconditioner of right-preconditioned GMRES to ``ksp_rtol``
+            1e-10; for large models: docs/performance.md) or ``"gamg"`` (GMRES +
+            smoothed aggregation AMG with the model's rigid-body modes as near-null
+            space, one body or several: :mod:`.linear`).
+        blr_tolerance: ``mumps_blr``: MUMPS's dropping parameter CNTL(7), the relative
+            accuracy of the compressed blocks; larger is cheaper per factorisation and
+            costs more GMRES iterations.
         rtol: Residual reduction relative to the first residual of a step.
         atol: Absolute residual norm [N].
         force_rtol: Newton also stops when the residual norm is below this fraction of
@@ -42,7 +56,8 @@ class NewtonOptions:
             command line (``-forming_<key> value``) overrides both.
     """
 
-    linear_solver: Literal["mumps", "gamg"] = "mumps"
+    linear_solver: Literal["auto", "mumps", "mumps_blr", "gamg"] = "auto"
+    blr_tolerance: float = 1e-4
     rtol: float = 1e-9
     atol: float = 1e-8
     force_rtol: float = 1e-4
@@ -54,9 +69,12 @@ class NewtonOptions:
     petsc: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.linear_solver not in ("mumps", "gamg"):
-            raise InputError("solver.linear_solver", f"must be 'mumps' or 'gamg', got "
-                             f"{self.linear_solver!r}")
+        if self.linear_solver not in LINEAR_SOLVERS:
+            raise InputError("solver.linear_solver", f"must be one of {list(LINEAR_SOLVERS)}"
+                             f", got {self.linear_solver!r}")
+        if not 0.0 < self.blr_tolerance < 1.0:
+            raise InputError("solver.blr_tolerance", f"must be in (0, 1), got "
+                             f"{self.blr_tolerance}")
         if self.line_search not in ("basic", "bt", "l2"):
             raise InputError("solver.line_search", f"must be 'basic', 'bt' or 'l2', got "
                              f"{self.line_search!r}")
@@ -71,8 +89,15 @@ class NewtonOptions:
         if self.max_it < 1:
             raise InputError("solver.max_it", f"must be >= 1, got {self.max_it}")
 
+    def for_size(self, unknowns: int) -> NewtonOptions:
+        """These settings with an ``auto`` linear solver chosen for ``unknowns``."""
+        if self.linear_solver != "auto":
+            return self
+        return replace(self, linear_solver="mumps_blr" if unknowns >= BLR_FROM_UNKNOWNS
+                       else "mumps")
+
     def petsc_options(self) -> dict[str, str]:
-        """The SNES/KSP options these settings stand for."""
+        """The SNES/KSP options these settings stand for (``auto`` not chosen: MUMPS)."""
         opts: dict[str, str] = {
             "snes_type": "newtonls",
             "snes_linesearch_type": self.line_search,
@@ -84,9 +109,15 @@ class NewtonOptions:
             # Dirichlet rows of the residual are in mm, the others in N: no divergence test
             "snes_divergence_tolerance": "-1",
         }
-        if self.linear_solver == "mumps":
+        if self.linear_solver in ("auto", "mumps"):
             opts |= {"ksp_type": "preonly", "pc_type": "lu",
                      "pc_factor_mat_solver_type": "mumps"}
+        elif self.linear_solver == "mumps_blr":
+            # the compressed LU is approximate: GMRES on the true residual makes it exact
+            opts |= {"ksp_type": "gmres", "ksp_pc_side": "right", "ksp_rtol": "1e-10",
+                     "ksp_max_it": "200", "pc_type": "lu",
+                     "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_35": "2",
+                     "mat_mumps_cntl_7": repr(self.blr_tolerance)}
         else:
             # GMRES: the foam's non-associated flow makes the tangent unsymmetric
             opts |= {"ksp_type": "gmres", "pc_type": "gamg", "ksp_rtol": "1e-10",
