@@ -58,16 +58,20 @@ def test_wedge_partition_keeps_the_explicit_answer(tmp_path, repo):
     A failure means a partition changes the physics: a cell, ghost or contact node lost
     or counted twice at the sector boundary.
     """
+    script = (
+        "import sys\nfrom pathlib import Path\nfrom forming.case import run_case\n"
+        "for part in ('graph', 'wedge'):\n"
+        "    run_case('core_crushing', Path(sys.argv[1]) / part, ['cells=4,4,2', "
+        "'solver=explicit', 'explicit.loading_time=0.002', 'stroke=4', "
+        "f'partition={part}'])\n")
+    proc = run_mpi(["-c", script, str(tmp_path)])
+    assert proc.returncode == 0, proc.stderr[-3000:]
     runs = {}
     for part in ("graph", "wedge"):
-        out = tmp_path / part
-        proc = run_mpi(["cases/core_crushing.py", "--out", str(out), "--set", "cells=6,6,2",
-                        "--set", "solver=explicit", "--set", "explicit.loading_time=0.005",
-                        "--set", "stroke=5", "--set", f"partition={part}"])
-        assert proc.returncode == 0, proc.stderr[-3000:]
-        summary = json.loads((out / "summary.json").read_text())
+        summary = json.loads((tmp_path / part / "summary.json").read_text())
         assert summary["status"] == "completed" and summary["ranks"] == 2
-        runs[part] = history(out)["force_punch_z_N"]
+        assert summary["parameters"]["partition"] == part
+        runs[part] = history(tmp_path / part)["force_punch_z_N"]
     a, b = runs["graph"], runs["wedge"]
     assert a.size == b.size and np.max(np.abs(a)) > 100.0
     assert np.max(np.abs(b - a)) <= 1e-8 * np.max(np.abs(a))
