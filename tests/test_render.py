@@ -40,6 +40,22 @@ def test_tool_series_writes_steps_and_collection(tmp_path):
     assert moved.bounds[4] == pytest.approx(series.surfaces["punch"].bounds[4] - 2.0)
 
 
+def test_tool_series_writes_a_tool_at_rest_once(tmp_path):
+    """A tool that has not moved since its last file is not written again: the
+    collection points later steps at that file, which ParaView then shows in place.
+    A failure means a fixed die is written at every output (slow, and disk) or a moved
+    tool is shown where it was."""
+    series = ToolSeries(tmp_path, [("die", Plane((0.0, 0.0, 1.0))), ("punch", PUNCH)],
+                        BOUNDS, 1.0)
+    for step, z in enumerate((0.0, -1.0, -2.0)):
+        series.write(step, 0.5 * step, {"die": np.zeros(3), "punch": np.array([0, 0, z])})
+    assert sorted(p.name for p in (tmp_path / "tools").glob("die_*.vtp")) == ["die_00000.vtp"]
+    assert len(list((tmp_path / "tools").glob("punch_*.vtp"))) == 3
+    pvd = (tmp_path / "tool_die.pvd").read_text()
+    for t in (0.0, 0.5, 1.0):
+        assert f'timestep="{t}" part="0" file="tools/die_00000.vtp"' in pvd
+
+
 def test_section_plot_writes_png(tmp_path):
     square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     polygons = [square, square + [1.0, 0.0]]
