@@ -192,8 +192,8 @@ def resolve_partition(params, solver: str | None):
 
     Angular wedges (:mod:`forming.partition`) for an explicit run, the graph partition
     otherwise. Measured on the 20 x 20 x 4 hemisphere with holder on 2 ranks
-    (docs/performance.md): the explicit increments run 1.10 times faster in wedges (the
-    crushing region shared, element-loop imbalance 1.16 -> 1.01), while the implicit
+    (docs/performance.md): the explicit increments run 1.1-1.2 times faster in wedges (the
+    crushing region shared, element-loop imbalance 1.16 -> 1.00), while the implicit
     run's MUMPS factorisation is 1.3-1.5 times slower on them. Parameters without the
     field, or with another value, are returned as given.
     """
