@@ -92,11 +92,6 @@ def _gmsh_cell_centres(model) -> np.ndarray:
     return x[topo].mean(axis=1)
 
 
-def _shared_facet_partitioner():
-    """Cells partitioned with the facets between ranks ghosted (interface integrals)."""
-    return dolfinx.mesh.create_cell_partitioner(dolfinx.mesh.GhostMode.shared_facet, 2)
-
-
 def create_hex_mesh(comm, cells, x):
     """A hexahedral mesh from node coordinates and cells in gmsh's node order.
 
@@ -106,10 +101,12 @@ def create_hex_mesh(comm, cells, x):
     import basix.ufl
     import ufl
 
+    from forming.partition import cell_partitioner
+
     perm = dolfinx.io.gmsh.cell_perm_array(dolfinx.mesh.CellType.hexahedron, 8)
     element = ufl.Mesh(basix.ufl.element("Lagrange", "hexahedron", 1, shape=(3,)))
     return dolfinx.mesh.create_mesh(comm, np.asarray(cells, dtype=np.int64)[:, perm], element,
-                                    np.asarray(x, dtype=float), _shared_facet_partitioner())
+                                    np.asarray(x, dtype=float), cell_partitioner("graph"))
 
 
 def vtx_writer(comm, path, functions):

@@ -24,10 +24,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Literal
 
-import dolfinx  # noqa: E402,I001
+import dolfinx
 import numpy as np
 
-from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from forming import compat  # noqa: F401  (the package's compat checks)
 from forming.errors import InputError
 
 Partition = Literal["graph", "wedge"]
