@@ -110,11 +110,11 @@ class NewtonOptions:
             "snes_divergence_tolerance": "-1",
         }
         if self.linear_solver in ("auto", "mumps"):
-            # no row/column scaling (ICNTL(8) = 0): on the 20 x 20 x 4 hemisphere the
-            # factorisation is 10% faster and the Newton path the same to every digit of
-            # the summary (docs/performance.md); pivoting is unchanged
+            # MUMPS's own scaling stays: without it (ICNTL(8) = 0) the hemisphere's
+            # factorisation was 10% faster on the same path, but core_crushing took 3042
+            # Newton iterations against 1809 (docs/performance.md)
             opts |= {"ksp_type": "preonly", "pc_type": "lu",
-                     "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_8": "0"}
+                     "pc_factor_mat_solver_type": "mumps"}
         elif self.linear_solver == "mumps_blr":
             # the compressed LU is approximate: GMRES on the true residual makes it exact
             opts |= {"ksp_type": "gmres", "ksp_pc_side": "right", "ksp_rtol": "1e-10",
