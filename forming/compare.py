@@ -160,7 +160,9 @@ def shape_differences(imp: dict[str, np.ndarray], exp: dict[str, np.ndarray],
         and per body ``shape_rms_diff_mm_<body>``), and each body's distances [mm].
     """
     dist: dict[str, np.ndarray] = {}
-    for key in sorted(k for k in imp if k.endswith("_X")):
+    # a body's nodes are "<body>_X" with "<body>_u"; a fabric's cell field
+    # ("<body>_cell_X", "_x", ...) is not a body
+    for key in sorted(k for k in imp if k.endswith("_X") and f"{k[:-2]}_u" in imp):
         name = key[:-2]
         if key not in exp or exp[key].shape != imp[key].shape or not np.allclose(
                 exp[key], imp[key], atol=1e-6):

@@ -127,14 +127,22 @@ class Model:
         interfaces: Skin-core interfaces.
         constraints: Every constraint: the contacts, then the interfaces.
         dirichlet: Prescribed displacements and their reactions.
+        penalty_only: Whether the solver enforces contact by the penalty alone (explicit
+            runs); the tool contacts' default penalties follow
+            (:func:`~forming.contact.base.default_penalty`).
+
+    Args:
+        scene: The scene.
+        penalty_only: As the attribute (:func:`forming.solver.penalty_only` of a job).
     """
 
-    def __init__(self, scene: Scene):
+    def __init__(self, scene: Scene, penalty_only: bool = False):
         from forming.contact.interface import InterfaceTerm, interface_entities
         from forming.contact.sliding import SlidingTerm
         from forming.contact.terms import ContactTerm, nodal_rule
 
         self.scene = scene
+        self.penalty_only = penalty_only
         md = scene.mesh
         self.comm = md.mesh.comm
         self._t = self._t_committed = 0.0
@@ -149,7 +157,8 @@ class Model:
             const = fem.Constant(md.mesh, np.zeros(3))
             self.tractions.append((tr, const, body.domain.ds(tr.region)))
         self.contacts = [
-            ContactTerm(c, scene.tool(c.tool), self.bodies[c.body], thickness[c.body])
+            ContactTerm(c, scene.tool(c.tool), self.bodies[c.body], thickness[c.body],
+                        penalty_only)
             for c in scene.contacts
         ]
         self.interfaces = []

@@ -38,7 +38,7 @@ from forming.log import Progress
 from forming.model import Model
 from forming.output import FieldOutput, Recorder, write_final_shape
 from forming.parallel import peak_rss_mb
-from forming.solver import make_solver
+from forming.solver import make_solver, penalty_only
 from forming.solver.base import StepResult
 from forming.solver.stepping import Stepper, StepperState, StepTooSmall
 
@@ -93,7 +93,7 @@ class Simulation:
         self.case = case
         self.parameters = dict(parameters or {})
         self.comm = job.scene.mesh.mesh.comm
-        self.model = Model(job.scene)
+        self.model = Model(job.scene, penalty_only(job))
         self.model.set_load(0.0)
         if overlaps := self.model.overlaps():
             raise InputError("tools", "; ".join(overlaps) + " at the start: move the tool or "

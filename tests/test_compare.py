@@ -52,6 +52,21 @@ def test_shape_differences_measure_nodal_distance_over_thickness():
     assert set(dist) == {"core", "skin"}
 
 
+def test_shape_differences_skip_a_fabric_cell_field():
+    """A run with skins stores each skin's cell field next to its nodes
+    (``skin_cell_X``, ``skin_cell_x``, ...: no ``_u``). It is not a body: before this
+    was caught, ``forming compare hemisphere --set skins=true`` failed on a KeyError
+    after both runs had finished."""
+    X = np.array([[0, 0, 0], [1, 0, 0], [0, 0, 20.0], [1, 0, 20.0]])
+    u = np.zeros((4, 3))
+    cells = {"skin_cell_X": X[:1], "skin_cell_x": X[:1], "skin_cell_volume": np.ones(1)}
+    imp = {"core_X": X, "core_u": u, "skin_X": X[:2], "skin_u": u[:2]} | cells
+    exp = dict(imp)
+    fig, dist = shape_differences(imp, exp, reference_thickness(imp))
+    assert set(dist) == {"core", "skin"}
+    assert fig["shape_max_diff_mm"] == 0.0
+
+
 def test_shape_differences_need_the_same_mesh():
     X = np.zeros((2, 3))
     with pytest.raises(InputError, match="mesh"):

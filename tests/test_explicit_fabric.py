@@ -216,4 +216,5 @@ def test_damped_bodies_must_name_bodies():
     scene = Scene(name="s", mesh=mesh, bodies=(body,),
                   displacements=(Displacement("block", "bottom", x=0.0, y=0.0, z=0.0),))
     with pytest.raises(InputError, match=r"explicit.damped_bodies.*\['core'\].*block"):
-        ExplicitSolver(Model(scene), ExplicitOptions(damping=100.0, damped_bodies=("core",)))
+        ExplicitSolver(Model(scene, penalty_only=True),
+                       ExplicitOptions(damping=100.0, damped_bodies=("core",)))

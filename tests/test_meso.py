@@ -234,7 +234,7 @@ def test_stabilisation_input_and_solver():
                   displacements=(Displacement("wall", "bottom", x=0.0, y=0.0, z=0.0),),
                   stabilisation=Stabilisation())
     with pytest.raises(InputError, match="scene.stabilisation"):
-        ExplicitSolver(Model(scene))
+        ExplicitSolver(Model(scene, penalty_only=True))
 
 
 @pytest.mark.slow

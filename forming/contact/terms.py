@@ -16,6 +16,7 @@ import ufl
 from dolfinx import fem, mesh  # noqa: I001
 from mpi4py import MPI
 
+from forming.contact.base import default_penalty
 from forming.contact.laws import coulomb_return, normal_pressure, tangent_projector
 from forming.contact.nodal import NodalContact
 from forming.contact.shapes import UFL
@@ -66,9 +67,12 @@ class ContactTerm:
         body: The body whose surface touches (a
             :class:`~forming.bodies.base.DeformableBody`).
         thickness: Smallest extent of the body [mm] (caps the default tolerance).
+        penalty_only: Whether the solver enforces it by the penalty alone (explicit runs:
+            a stiffer default penalty, :func:`~forming.contact.base.default_penalty`).
     """
 
-    def __init__(self, spec: Contact, tool: Tool, body, thickness: float):
+    def __init__(self, spec: Contact, tool: Tool, body, thickness: float,
+                 penalty_only: bool = False):
         self.spec = spec
         self.tool = tool
         self.body = body
@@ -84,7 +88,7 @@ class ContactTerm:
         h = surface_edge_min(msh, facets)
         self.tolerance = spec.tolerance or 0.01 * min(h, thickness)
         stiffness = body.contact_stiffness()
-        self.penalty = spec.penalty or 10.0 * stiffness / h
+        self.penalty = spec.penalty or default_penalty(stiffness, h, thickness, penalty_only)
         self.friction = spec.friction
         # elastic slip of the penalty stick law (None: augmented stick constraint)
         self.elastic_slip = 0.005 * h if spec.stick == "elastic_slip" else None

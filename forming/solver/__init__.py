@@ -13,8 +13,8 @@ from forming.errors import InputError
 from forming.solver.base import Solver, StepResult
 from forming.solver.options import ExplicitOptions, NewtonOptions
 
-__all__ = ["SOLVERS", "ExplicitOptions", "NewtonOptions", "Solver", "StepResult",
-           "make_solver"]
+__all__ = ["PENALTY_ONLY", "SOLVERS", "ExplicitOptions", "NewtonOptions", "Solver",
+           "StepResult", "make_solver", "penalty_only"]
 
 
 def _implicit(model, job) -> Solver:
@@ -32,12 +32,30 @@ def _explicit(model, job) -> Solver:
 SOLVERS: dict[str, Callable] = {"implicit": _implicit, "explicit": _explicit}
 
 
+# whether a solver enforces contact by the penalty alone (no multipliers): the model's
+# default penalties follow (forming.contact.base.default_penalty)
+PENALTY_ONLY: dict[str, bool] = {"implicit": False, "explicit": True}
+
+
+def _known(job) -> str:
+    if job.solver not in SOLVERS:
+        raise InputError("solver", f"must be one of {sorted(SOLVERS)}, got {job.solver!r}")
+    return job.solver
+
+
+def penalty_only(job) -> bool:
+    """Whether the solver ``job.solver`` enforces contact by the penalty alone.
+
+    Raises:
+        InputError: Unknown solver name.
+    """
+    return PENALTY_ONLY[_known(job)]
+
+
 def make_solver(job, model) -> Solver:
     """The solver a job asks for (``job.solver``), built for ``model``.
 
     Raises:
         InputError: Unknown solver name.
     """
-    if job.solver not in SOLVERS:
-        raise InputError("solver", f"must be one of {sorted(SOLVERS)}, got {job.solver!r}")
-    return SOLVERS[job.solver](model, job)
+    return SOLVERS[_known(job)](model, job)

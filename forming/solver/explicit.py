@@ -70,6 +70,9 @@ class ExplicitSolver:
         if model.stabilisation is not None:
             raise InputError("scene.stabilisation", "viscous stabilisation is for implicit "
                              "runs; an explicit run damps with explicit.damping")
+        if not model.penalty_only:
+            raise InputError("model", "an explicit run enforces contact by the penalty "
+                             "alone: build its model with Model(scene, penalty_only=True)")
         self.model = model
         self.options = opts = options or ExplicitOptions()
         comm = model.comm
