@@ -9,12 +9,15 @@ import numpy as np
 import pytest
 
 from forming.case import run_case
+from forming.contact.shapes import Plane
 from forming.errors import InputError
 from forming.job import Job
 from forming.materials import ElasticSolid, IsotropicElasticity
 from forming.mesh import box
+from forming.model import Model
 from forming.run import simulate
-from forming.scene import Body, Displacement, Linear, Scene
+from forming.scene import Body, Contact, Displacement, Linear, Scene, Tool, Traction
+from forming.solver.explicit import ExplicitSolver
 from forming.solver.options import ExplicitOptions
 from forming.solver.stepping import StepControl
 
@@ -245,9 +248,6 @@ def test_bound_every_is_a_share_of_the_load():
 def _pressed_layer(tmp, solver: str):
     """A 0.4 mm elastic layer under 10 mm elements (nu = 0) pressed on a rigid table by
     0.05 MPa; returns the summary and the history."""
-    from forming.contact.shapes import Plane
-    from forming.scene import Contact, Tool, Traction
-
     t = 0.4
     scene = Scene("layer", box((40.0, 40.0, t), (4, 4, 1)),
                   (Body("layer", ElasticSolid(IsotropicElasticity(E, 0.0), density=1e-9)),),
@@ -285,9 +285,6 @@ def test_explicit_solver_refuses_an_augmented_lagrangian_model():
     """An explicit run needs its model's penalties sized for the penalty alone; a model
     built for multipliers is refused, naming the fix, rather than run with penalties 25
     times too soft on a thin layer."""
-    from forming.model import Model
-    from forming.solver.explicit import ExplicitSolver
-
     scene = Scene("block", box((1.0, 1.0, 1.0), (1, 1, 1)),
                   (Body("block", ElasticSolid(IsotropicElasticity(E, 0.0), density=RHO)),),
                   displacements=(Displacement("block", "bottom", x=0.0, y=0.0, z=0.0),))

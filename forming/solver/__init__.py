@@ -32,9 +32,9 @@ def _explicit(model, job) -> Solver:
 SOLVERS: dict[str, Callable] = {"implicit": _implicit, "explicit": _explicit}
 
 
-# whether a solver enforces contact by the penalty alone (no multipliers): the model's
+# the solvers that enforce contact by the penalty alone (no multipliers): the model's
 # default penalties follow (forming.contact.base.default_penalty)
-PENALTY_ONLY: dict[str, bool] = {"implicit": False, "explicit": True}
+PENALTY_ONLY: frozenset[str] = frozenset({"explicit"})
 
 
 def _known(job) -> str:
@@ -49,7 +49,7 @@ def penalty_only(job) -> bool:
     Raises:
         InputError: Unknown solver name.
     """
-    return PENALTY_ONLY[_known(job)]
+    return _known(job) in PENALTY_ONLY
 
 
 def make_solver(job, model) -> Solver:
