@@ -181,11 +181,17 @@ def section(spec: Spec, work: Path) -> list[str]:
     return lines
 
 
+def marker(spec: Spec) -> str:
+    """The name of a study's own block in docs/validation.md (``--only`` rewrites it alone)."""
+    return "convergence " + spec.folder.strip("./").replace("/", "_")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--work", type=Path, default=REPO / "results" / "convergence")
     parser.add_argument("--only", nargs="+", default=None,
-                        help="study folders to run (default: all)")
+                        help="study folders to run (default: all); with --write, only their "
+                        "blocks of the section are rewritten")
     parser.add_argument("--write", action="store_true", help="update docs/validation.md")
     args = parser.parse_args()
     lines = ["## Convergence of the shipped cases (issue 19)", "",
@@ -194,13 +200,17 @@ def main() -> None:
              "three levels converge monotonically (Richardson with Roache's grid-convergence "
              "index, safety factor 1.25); otherwise the table says why not, and the change "
              "between levels stands in for the error.", ""]
+    doc = REPO / "docs" / "validation.md"
     for spec in STUDIES:
         if args.only is None or spec.folder in args.only:
-            lines += section(spec, args.work)
-    text = "\n".join(lines)
-    print(text)
-    if args.write:
-        update_section("convergence", text, REPO / "docs" / "validation.md")
+            body = "\n".join(section(spec, args.work))
+            print(body)
+            if args.only is not None and args.write:  # this study's block alone
+                update_section(marker(spec), body, doc)
+            lines += [f"<!-- BEGIN {marker(spec)} -->", body.rstrip(),
+                      f"<!-- END {marker(spec)} -->", ""]
+    if args.only is None and args.write:
+        update_section("convergence", "\n".join(lines), doc)
 
 
 if __name__ == "__main__":

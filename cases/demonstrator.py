@@ -67,6 +67,7 @@ class Params:
     element_size: float = 30.0  # core element size in plan [mm]
     core_layers: int = 2  # core elements through the thickness
     skin_refinement: int = 1  # skin elements per core element in plan
+    skin_stabilisation: float = 1e-3  # skin-core stabilising spring, fraction of the penalty
     clearance: float = 1.0  # gap between the open upper tool and the blank [mm]
     contact_tolerance: float | None = None  # skin-tool penetration allowed [mm]; none: 1% ply
     bridging_gap: float = 0.5  # a skin farther than this from its tool is bridging [mm]
@@ -80,14 +81,15 @@ class Params:
 def build(p: Params) -> Job:
     require(p, positive=("tool_scale", "core_thickness", "ply_thickness", "element_size",
                          "bridging_gap"),
-            nonnegative=("tool_friction", "skin_friction", "clearance"))
+            nonnegative=("tool_friction", "skin_friction", "clearance", "skin_stabilisation"))
     require(p, positive=("contact_tolerance",) if p.contact_tolerance is not None else ())
     if len(p.fibre_angles) != 2:
         raise InputError("--set fibre_angles", f"two angles, got {p.fibre_angles}")
     part = setup.Part.from_params(p.lower_tool, p.upper_tool, p.tool_scale, p.blank, p.trim,
                                   p.core_thickness + 2 * p.plies * p.ply_thickness)
     fabric = NonCrimpFabric(thickness=p.ply_thickness, fibre_angles_deg=tuple(p.fibre_angles))
-    skins = Skins(fabric, p.plies, p.skin_friction, 1e-3, 0.1, "finite", p.skin_refinement)
+    skins = Skins(fabric, p.plies, p.skin_friction, p.skin_stabilisation, 0.1, "finite",
+                  p.skin_refinement)
     b = outline_blank(part.quarter, p.core_thickness, p.element_size, p.core_layers,
                       honeycomb_core("isotropic", curve=p.curve, viscosity=p.viscosity), skins)
     tools, contacts, stroke = setup.matched_tools(part, b, p.tool_friction, p.clearance,

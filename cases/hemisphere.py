@@ -94,7 +94,7 @@ class Params:
     skin_thickness: float = 0.4  # ply thickness [mm]
     skin_friction: float = FABRIC_CORE_FRICTION  # skin-core Coulomb coefficient (paper: 0.52)
     tool_skin_friction: float = TOOL_FABRIC_FRICTION  # tool-skin Coulomb coefficient (paper: 0.23)
-    skin_stabilisation: float = 1e-3  # interface stabilisation, fraction of its penalty
+    skin_stabilisation: float = 1e-4  # interface stabilisation, fraction of its penalty
     skin_smoothing: float | None = None  # smoothed skin-core pressure ramp; none: see below
     tool_stick: Literal["auto", "augmented", "elastic_slip"] = "auto"  # tool stick law
     tool_penalty: float | None = None  # tool contact penalty [N/mm^3]; none: 10 C_max / h
@@ -148,7 +148,8 @@ def skin_smoothing(p: Params) -> float:
 def build(p: Params) -> Job:
     require(p, positive=("size", "thickness", "punch_diameter", "die_diameter", "stroke")
             + (("tool_penalty",) if p.tool_penalty is not None else ()),
-            nonnegative=("friction", "edge_radius", "skin_friction", "tool_skin_friction")
+            nonnegative=("friction", "edge_radius", "skin_friction", "tool_skin_friction",
+                         "skin_stabilisation")
             + (("skin_smoothing",) if p.skin_smoothing is not None else ()))
     if p.punch_diameter >= p.die_diameter:
         raise InputError("--set punch_diameter", f"{p.punch_diameter:g} mm does not pass the "

@@ -200,7 +200,14 @@ def test_hemisphere_with_sliding_skins_completes(tmp_path):
     more than half an element on the core (measured 14.5 mm), without the small-sliding
     warning, and with the top skin sheared both ways (measured -26.0 to +25.8 deg with the
     case's smoothed interface pressure and l2 line search; the small-sliding run: -25.7
-    to +25.5). About 70 s, so in ``scripts/dev.sh validate``."""
+    to +25.5). About 70 s, so in ``scripts/dev.sh validate``.
+
+    The skins' stabilising spring (``skin_stabilisation``) drags on sliding skins, so it
+    must carry a small share of the load: from 5 mm of stroke on, the two interfaces'
+    spring forces stay below 3% of the punch force (measured 1.5% at the default 1e-4,
+    0.15% at 1e-5; at the former default 1e-3, 14%, which put the punch force 2% high
+    here and 26% on the default mesh, docs/validation.md). A failure means the spring
+    biases the answer."""
     s = run_case("hemisphere", tmp_path, ["skins=true", "blank_holder=true", "cells=8,8,2",
                                           "skin_contact=finite"])
     assert s["status"] == "completed", s["reason"]
@@ -208,6 +215,11 @@ def test_hemisphere_with_sliding_skins_completes(tmp_path):
     assert m["skin_core_slip_max_mm"] > 0.5 * 150.0 / 8
     assert not any("small-sliding" in w for w in s["warnings"])
     assert m["shear_min_deg_skin_top"] < -15.0 < 15.0 < m["shear_max_deg_skin_top"]
+    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    late = h["stroke_mm"] >= 5.0
+    spring = h["sliding_top_stabilisation_N"] + h["sliding_bottom_stabilisation_N"]
+    assert np.all(spring[late] < 0.03 * np.abs(h["force_punch_z_N"][late])), \
+        float(np.max(spring[late] / np.abs(h["force_punch_z_N"][late])))
 
 
 def test_sliding_restart_on_two_ranks_equals_the_uninterrupted_run(tmp_path):
