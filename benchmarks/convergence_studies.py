@@ -202,17 +202,17 @@ def main() -> None:
              "index, safety factor 1.25); otherwise the table says why not, and the change "
              "between levels stands in for the error.", ""]
     doc = REPO / "docs" / "validation.md"
-    for spec in STUDIES:
-        if args.only is None or spec.folder in args.only:
-            body = "\n".join(section(spec, args.work))
-            print(body)
-            if args.only is not None and args.write:  # this study's block alone
-                update_section(marker(spec), body, doc)
-            lines += [f"<!-- BEGIN {marker(spec)} -->", body.rstrip(),
-                      f"<!-- END {marker(spec)} -->", ""]
+    for spec in (s for s in STUDIES if args.only is None or s.folder in args.only):
+        body = "\n".join(section(spec, args.work))
+        if args.only is not None:  # a block rerun alone: its own machine line
+            body += f"\nThis block was written by `--only {spec.folder}` on {machine()}.\n"
+        print(body)
+        if args.only is not None and args.write:
+            update_section(marker(spec), body, doc)
+        lines += [f"<!-- BEGIN {marker(spec)} -->", body.rstrip(), f"<!-- END {marker(spec)} -->",
+                  ""]
     if args.only is None and args.write:
         update_section("convergence", "\n".join(lines), doc)
-
 
 if __name__ == "__main__":
     main()
