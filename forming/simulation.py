@@ -41,6 +41,7 @@ from forming.parallel import peak_rss_mb
 from forming.solver import make_solver, penalty_only
 from forming.solver.base import StepResult
 from forming.solver.stepping import Stepper, StepperState, StepTooSmall
+from forming.springs import SpringEscalation
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +58,7 @@ class Checkpoint:
         stepper: Load parameter, step size and counters.
         rows: Number of history rows written.
         fields_at: Load parameter of the last field output.
+        springs: The stabilising springs' scale and record (:mod:`forming.springs`).
     """
 
     model: dict
@@ -64,6 +66,7 @@ class Checkpoint:
     stepper: StepperState
     rows: int
     fields_at: float | None
+    springs: dict | None = None
 
 
 class Simulation:
@@ -100,6 +103,11 @@ class Simulation:
                              "the blank")
         self.solver = make_solver(job, self.model)
         self.stepper = Stepper(self.solver.step_control(job.steps))
+        nw = job.newton
+        self.springs = SpringEscalation(
+            [*self.model.interfaces, *self.model.sliding],
+            nw.spring_escalation if self.solver.retries_on_failure else 1.0,
+            nw.spring_escalation_max, nw.spring_escalation_hold)
         self.jit_s = time.perf_counter() - self._t_start
         self.assignments = None if assignments is None else list(assignments)
         self.restarted_from: dict | None = None
@@ -192,6 +200,7 @@ class Simulation:
                 self.model.set_load(stepper.t)
                 return res
             solver.accept(scale)
+            self.springs.commit(t_new)
             self.progress.step(stepper.n_accepted, t_new, stepper.last_dt,
                                f"{res.work} {solver.work_name}", res.seconds)
             if stepper.n_accepted % self.job.field_every == 0 or stepper.done:
@@ -212,8 +221,12 @@ class Simulation:
         try:
             stepper.reject()
         except StepTooSmall as exc:
-            return self._fail(f"{exc} ({self.progress.where(stepper.t)}); last failure: "
-                              f"{res.reason}", res)
+            if (spring := self.springs.stiffen(stepper.t)) is None:
+                return self._fail(f"{exc} ({self.progress.where(stepper.t)}); last failure: "
+                                  f"{res.reason}", res)
+            stepper.resume(stepper.last_dt or stepper.control.initial)
+            log.warning("%s: stabilising springs stiffened to %g times their setting; "
+                        "retrying", exc, spring)
         return res
 
     def _interrupt(self, signum: int, res: StepResult) -> StepResult:
@@ -261,6 +274,7 @@ class Simulation:
         merge(row, whole_part(self.solver.history_columns(result), copies),
               f"{self.solver.kind} solver", owners)
         merge(row, {"step_wall_s": result.seconds}, "simulation", owners)
+        merge(row, self.springs.history_columns(), "springs", owners)
         model_columns = self.model.history_columns(self.solver)
         scale = self._force_scale(model_columns)  # of the modelled part (Newton's tolerance)
         merge(row, whole_part(model_columns, copies), "model", owners)
@@ -289,7 +303,7 @@ class Simulation:
         """The simulation's state between two steps (in memory)."""
         self.start()
         return Checkpoint(self.model.snapshot(), self.solver.snapshot(), self.stepper.state(),
-                          len(self.recorder.rows), self._fields_at)
+                          len(self.recorder.rows), self._fields_at, self.springs.state())
 
     def restore(self, cp: Checkpoint) -> None:
         """Return to a checkpoint: model, solver, stepper and history rows.
@@ -300,6 +314,7 @@ class Simulation:
         self.model.restore(cp.model)
         self.solver.restore(cp.solver)
         self.stepper.restore(cp.stepper)
+        self.springs.restore(cp.springs)
         self.model.set_load(self.stepper.t)
         self.recorder.truncate(cp.rows)
         self._fields_at = cp.fields_at
@@ -330,6 +345,7 @@ class Simulation:
                 "written": provenance.now() if self.comm.rank == 0 else "",
                 "stepper": dataclasses.asdict(st), "fields_at": cp.fields_at,
                 "work": self._work, "checkpoint_every": self.job.checkpoint_every,
+                "springs": cp.springs,
                 "rows": self.recorder.rows[: cp.rows]}
         path = disk.checkpoint_path(self.out)
         t0 = time.perf_counter()
@@ -356,8 +372,10 @@ class Simulation:
     def _resume(self, state: dict, meta: dict) -> None:
         """Continue from a checkpoint read from disk (a restart)."""
         cp = Checkpoint(state["model"], state["solver"], StepperState(**meta["stepper"]),
-                        len(meta["rows"]), meta["fields_at"])
-        self.recorder.rows = list(meta["rows"])
+                        len(meta["rows"]), meta["fields_at"], meta.get("springs"))
+        fresh = self.springs.history_columns()  # scale 1 in rows from before the column
+        self.recorder.rows = [r | {k: v for k, v in fresh.items() if k not in r}
+                              for r in meta["rows"]]
         self.restore(cp)
         self._started = True
         self._work = meta["work"]
@@ -406,7 +424,8 @@ class Simulation:
         job, model, comm, rec = self.job, self.model, self.comm, self.recorder
         metrics, notes = _numbers(self._hook("metrics", job.metrics, rec, model) or {})
         metrics |= self.solver.metrics()
-        warnings = model.warnings() + self.solver.warnings()
+        warnings = (model.warnings() + self.solver.warnings()
+                    + self.springs.warnings(self.progress.where))
         for w in warnings:
             log.warning("%s", w)
         validity = self.solver.validity() | {
@@ -425,7 +444,7 @@ class Simulation:
                 "kernel_s": comm.allreduce(sum(b.kernel_seconds for b in bodies)) / comm.size,
                 "work_name": self.solver.work_name, "work": self._work,
                 "peak_rss_mb": peak_rss_mb(comm),
-            } | self.solver.timing(),
+            } | self.springs.summary() | self.solver.timing(),
             "mesh": {"cells": sum(comm.allreduce(b.n_local_cells) for b in bodies),
                      "dofs": sum(b.V.dofmap.index_map.size_global * 3 for b in bodies),
                      "quadrature_points_per_cell": bodies[0].n_points

@@ -76,6 +76,64 @@ def test_stepper_grows_cuts_and_lands_on_stops():
         st.reject()
     with pytest.raises(StepTooSmall, match="minimum"):
         st.reject()
+    st.resume(0.5)  # after a change of model: on at a size within the bounds
+    assert st.dt == pytest.approx(0.3)
+
+
+class _Pair:
+    """A stand-in for an interface pair: records the spring scale it is given."""
+
+    def __init__(self, name: str, has_spring: bool):
+        self.name, self.has_spring, self.scale = name, has_spring, 1.0
+
+    def scale_spring(self, scale: float) -> None:
+        self.scale = scale
+
+
+def test_spring_escalation_stiffens_holds_and_steps_back():
+    """The springs go up by the factor when a step cannot be cut further, to the limit
+    and no further; after ``hold`` accepted steps they step back down, one factor at a
+    time, to their setting; a checkpoint's state restores all of it. A pair without a
+    spring is never touched. A failure means a stiffened run would not return to the
+    user's spring, or would stiffen without bound."""
+    from forming.springs import SpringEscalation
+
+    sprung, bare = _Pair("top", True), _Pair("tool", False)
+    esc = SpringEscalation([sprung, bare], factor=10.0, limit=100.0, hold=2)
+    assert esc.active and esc.history_columns() == {"spring_scale": 1.0}
+    assert esc.stiffen(0.1) == pytest.approx(10.0) and sprung.scale == pytest.approx(10.0)
+    assert esc.stiffen(0.1) == pytest.approx(100.0)
+    assert esc.stiffen(0.1) is None and sprung.scale == pytest.approx(100.0)  # the limit
+    assert bare.scale == 1.0
+    saved = esc.state()
+    esc.commit(0.2)
+    esc.commit(0.3)
+    assert sprung.scale == pytest.approx(10.0)  # held 2 steps: one factor down
+    esc.commit(0.4)
+    esc.commit(0.5)
+    assert sprung.scale == pytest.approx(1.0)
+    esc.commit(0.6)
+    assert esc.scale == 1.0 and esc.stiffened_steps == 4
+    assert esc.summary() == {"spring_escalations": 2, "spring_scale_max": 100.0,
+                             "spring_stiffened_steps": 4}
+    assert "2 time(s)" in esc.warnings(lambda t: f"t={t}")[0]
+    esc.restore(saved)
+    assert sprung.scale == pytest.approx(100.0) and esc.stiffened_steps == 0
+    esc.restore(None)  # a checkpoint written before the springs were recorded
+    assert sprung.scale == 1.0 and esc.warnings(str) == []
+    off = SpringEscalation([sprung], factor=1.0, limit=100.0, hold=2)
+    assert not off.active and off.stiffen(0.1) is None and off.history_columns() == {}
+
+
+def test_spring_escalation_settings_are_checked():
+    """A factor or limit below 1, or a hold below one step, is refused by its name."""
+    from forming.errors import InputError
+    from forming.solver.options import NewtonOptions
+
+    for key, value in (("spring_escalation", 0.5), ("spring_escalation_max", float("nan")),
+                       ("spring_escalation_hold", 0)):
+        with pytest.raises(InputError, match=f"newton.{key}"):
+            NewtonOptions(**{key: value})
 
 
 def test_multipliers_inside_newton_equal_uzawa(tmp_path):

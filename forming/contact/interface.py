@@ -203,6 +203,7 @@ class InterfaceTerm:
             self._stab = -self.stabilisation * step_jump
             traction = traction + self._stab
         self.traction = traction
+        self.has_spring = self.stabilisation is not None
         # nodal values: assemble against the test function, divide by the nodal area
         w, wv = ufl.TestFunction(W), ufl.TestFunction(Wv)
         self._area = self._assemble(self._form(w("+") * dS))
@@ -397,6 +398,11 @@ class InterfaceTerm:
     def normal_force(self) -> float:
         """Total normal (compressive) force across the interface [N]."""
         return self.comm.allreduce(fem.assemble_scalar(self._normal_force), op=MPI.SUM)
+
+    def scale_spring(self, scale: float) -> None:
+        """Set the stabilising spring to ``scale`` times its setting (forming.springs)."""
+        if self.stabilisation is not None:
+            self.stabilisation.value = scale * self.spec.stabilisation * self.penalty
 
     def stabilisation_force(self) -> float:
         """Integral of the stabilisation traction's magnitude [N] (0 if none)."""

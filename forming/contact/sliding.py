@@ -139,6 +139,7 @@ class SlidingTerm:
         self.force = np.zeros((n, 3))  # force on each slave node [N]
         self.spring = np.zeros((n, 3))  # stabilising force on each slave node [N]
         self.kappa = spec.stabilisation * self.penalty
+        self.has_spring = self.kappa > 0.0
         self.width = spec.smoothing * self.penalty * self.tolerance  # pressure ramp [MPa]
         # the master point each slave node starts on (its total slip is measured from it)
         self._start = np.zeros(n, dtype=np.int64)
@@ -415,6 +416,10 @@ class SlidingTerm:
     def augment(self) -> None:
         """Uzawa update of the normal multipliers (none for a node let go entirely)."""
         self.lam_n[:] = np.where(self._held() > 0.0, self._sharp(), 0.0)
+
+    def scale_spring(self, scale: float) -> None:
+        """Set the stabilising spring to ``scale`` times its setting (forming.springs)."""
+        self.kappa = scale * self.spec.stabilisation * self.penalty
 
     def commit(self) -> None:
         """Accept the step: the touched master points and the shear become history."""

@@ -52,6 +52,16 @@ class NewtonOptions:
             ``"uzawa"``: a Newton solve per multiplier update (the first wave's outer
             loop, kept for comparison).
         max_augmentations: Multiplier updates per step before the step counts as failed.
+        spring_escalation: When a step is cut below ``steps.min``, the interfaces'
+            stabilising springs (``stabilisation`` of an interface or sliding pair) are
+            stiffened by this factor and the step retried at the last accepted size, as
+            Abaqus/Standard's adaptive stabilisation raises its damping where increments
+            fail (:mod:`forming.springs`); 1 switches it off. A run that never stops is
+            not touched.
+        spring_escalation_max: The springs are stiffened to at most this many times
+            their setting.
+        spring_escalation_hold: Accepted steps after which a stiffened spring steps back
+            down by one factor.
         petsc: Extra PETSc options for the SNES prefix, overriding the defaults; the
             command line (``-forming_<key> value``) overrides both.
     """
@@ -66,6 +76,9 @@ class NewtonOptions:
     predictor: Literal["extrapolate", "previous"] = "extrapolate"
     multipliers: Literal["newton", "uzawa"] = "newton"
     max_augmentations: int = 25
+    spring_escalation: float = 10.0
+    spring_escalation_max: float = 100.0
+    spring_escalation_hold: int = 10
     petsc: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -88,6 +101,12 @@ class NewtonOptions:
             raise InputError("solver.force_rtol", f"must be >= 0, got {self.force_rtol}")
         if self.max_it < 1:
             raise InputError("solver.max_it", f"must be >= 1, got {self.max_it}")
+        for name in ("spring_escalation", "spring_escalation_max"):
+            if not (math.isfinite(v := getattr(self, name)) and v >= 1.0):
+                raise InputError(f"newton.{name}", f"must be a number >= 1, got {v!r}")
+        if self.spring_escalation_hold < 1:
+            raise InputError("newton.spring_escalation_hold",
+                             f"must be >= 1, got {self.spring_escalation_hold}")
 
     def for_size(self, unknowns: int) -> NewtonOptions:
         """These settings with an ``auto`` linear solver chosen for ``unknowns``."""

@@ -112,6 +112,10 @@ class Stepper:
                 f"step cut below the minimum {self.control.min:g} at load parameter {self.t:.6g}"
             )
 
+    def resume(self, dt: float) -> None:
+        """Go on with step size ``dt`` (within the control's bounds) after a change of model."""
+        self.dt = min(max(dt, self.control.min), self.control.max)
+
     def state(self) -> StepperState:
         """Where the stepper stands."""
         return StepperState(self.t, self.dt, self.last_dt, self.n_accepted, self.n_rejected)
