@@ -4,7 +4,8 @@ A :class:`Simulation` owns a model, its solver, the load stepper and the run's o
 Each :meth:`Simulation.step` is one attempt at the next load step: the solver advances
 and solves; a converged step is committed, recorded and (every ``field_every`` steps)
 written; a failed one is rolled back and cut (or, for a solver that does not retry,
-ends the run). :meth:`Simulation.run` is the loop that :func:`forming.run.simulate`
+ends the run; one that cannot be cut further first stiffens the interfaces' springs,
+:mod:`forming.springs`). :meth:`Simulation.run` is the loop that :func:`forming.run.simulate`
 calls; a driver (the blank optimiser, a study, a coupled code) calls :meth:`step` until
 a condition of its own, reads :attr:`Simulation.model`, and calls :meth:`finish`.
 
@@ -171,8 +172,10 @@ class Simulation:
         """Attempt the next load step; returns what the solver reported.
 
         A converged step is committed and recorded; a failed one is rolled back and the
-        step cut (``stepper``), or, when the solver does not retry or the step would be
-        too small, the run stops (:attr:`status` ``"failed"``).
+        step cut (``stepper``); a step that would be cut below the minimum stiffens the
+        interfaces' stabilising springs and goes on at the last accepted size
+        (:mod:`forming.springs`) while they may be stiffened further; otherwise, or when
+        the solver does not retry, the run stops (:attr:`status` ``"failed"``).
 
         Raises:
             RuntimeError: The simulation is already done.
@@ -222,8 +225,10 @@ class Simulation:
             stepper.reject()
         except StepTooSmall as exc:
             if (spring := self.springs.stiffen(stepper.t)) is None:
+                held = (f"; springs at {self.springs.scale:g} times their setting"
+                        if self.springs.scale > 1.0 else "")
                 return self._fail(f"{exc} ({self.progress.where(stepper.t)}); last failure: "
-                                  f"{res.reason}", res)
+                                  f"{res.reason}{held}", res)
             stepper.resume(stepper.last_dt or stepper.control.initial)
             log.warning("%s: stabilising springs stiffened to %g times their setting; "
                         "retrying", exc, spring)
