@@ -7,7 +7,8 @@
    pin-jointed net would have it;
 2. the macro model, implicit, at element sizes 60 and 45 mm and the default 30 mm (the
    reference, the finest finite-element result);
-3. the macro model, explicit: not yet (its force with skins is off, issue 17);
+3. the macro model, explicit, at 60 mm (compared also with the implicit run on the same
+   mesh);
 4. the meso model: not yet (issue 20).
 
 The finite-element runs are ``forming study`` runs on 2 ranks each, one at a time, in
@@ -39,21 +40,23 @@ sys.path.insert(0, str(REPO))
 from forming.post.skinfield import CellField, DrapeField, rms  # noqa: E402
 
 SIZES = ("60", "45", "30")  # element sizes [mm]; the last is the reference
+EXPLICIT = ("60",)  # element sizes of the explicit level
 SKIN = "skin_bottom"  # the skin on the lower tool (the drape's surface)
 METRICS = ("closing_force_max_N", f"shear_min_deg_{SKIN}", f"shear_max_deg_{SKIN}")
 FLANGE = -1.0  # a reference cell whose formed centroid ends above this z is on the flange
 FIG = REPO / "docs" / "figures"
 
 
-def fe_levels(work: Path, ranks: int) -> list[Level]:
+def fe_levels(work: Path, solver: str, sizes: tuple[str, ...], ranks: int) -> list[Level]:
+    sets = ("solver=explicit",) if solver == "explicit" else ()
     levels = []
-    for row, _summary in study_runs("demonstrator", {"element_size": SIZES},
-                                    work / "implicit", (), ranks, metrics=METRICS):
+    for row, _summary in study_runs("demonstrator", {"element_size": sizes}, work / solver,
+                                    sets, ranks, metrics=METRICS):
         if row.status != "completed":
-            print(f"{row.values}: {row.status} ({row.reason})", file=sys.stderr)
+            print(f"{solver} {row.values}: {row.status} ({row.reason})", file=sys.stderr)
             continue
         m = row.metrics
-        levels.append(Level(f"macro implicit, {row.values['element_size']} mm", row.wall_s,
+        levels.append(Level(f"macro {solver}, {row.values['element_size']} mm", row.wall_s,
                             row.unknowns, CellField.load(row.folder, SKIN),
                             (m[f"shear_min_deg_{SKIN}"], m[f"shear_max_deg_{SKIN}"]),
                             m["closing_force_max_N"], row.folder))
@@ -109,7 +112,9 @@ def maps(rows: list[dict], ref: CellField, path: Path) -> Path:
 def verdict(rows: list[dict], ref_level: Level) -> list[str]:
     """What the ladder says, from its numbers."""
     drape = next(r for r in rows if isinstance(r["level"].field, DrapeField))
-    fe = [r for r in rows if r["level"].force_N is not None and r["level"] is not ref_level]
+    fe = [r for r in rows if r["level"].force_N is not None and r["level"] is not ref_level
+          and "implicit" in r["level"].label]
+    explicit = [r for r in rows if "explicit" in r["level"].label]
     ref = next(r for r in rows if r["level"] is ref_level)
     out = [f"- **Kinematic drape.** {drape['rms_deg']:.1f} deg RMS from the reference over "
            f"the bottom skin it covers ({drape['flange_deg']:.1f} on the flange, "
@@ -138,6 +143,19 @@ def verdict(rows: list[dict], ref_level: Level) -> list[str]:
                    f"({r['flange_deg']:.2f} on the flange, {r['dish_deg']:.2f} in the dish), "
                    f"closing force {lv.force_N / ref_level.force_N - 1:+.1%}, in "
                    f"{lv.wall_s / ref_level.wall_s:.0%} of the reference's wall time.")
+    for r in explicit:
+        lv = r["level"]
+        twin = next((t for t in fe if t["level"].label == lv.label.replace("explicit",
+                                                                            "implicit")), None)
+        if twin is None:
+            continue
+        tw = twin["level"]
+        out.append(f"- **{lv.label}.** Against the implicit run on the same mesh: "
+                   f"{r['rms_deg']:.2f} against {twin['rms_deg']:.2f} deg RMS from the "
+                   f"reference, closing force {lv.force_N / tw.force_N - 1:+.1%} from the "
+                   f"implicit one ({lv.force_N / 1e3:.1f} against {tw.force_N / 1e3:.1f} kN), "
+                   f"in {lv.wall_s / tw.wall_s:.2f} times its wall time (`forming compare "
+                   "demonstrator`: docs/validation.md, \"The demonstrator\").")
     return out
 
 
@@ -161,9 +179,7 @@ def markdown(rows: list[dict], ref_level: Level, ranks: int) -> str:
     for r in rows:
         lines.append(f"{level_cells(r)} {r['flange_deg']:.2f} | {r['dish_deg']:.2f} |"
                      f"{force_cells(r['level'], ref_f, 1e3, '.1f')}")
-    lines += ["| macro explicit | not yet: its force with skins is off (issue 17) "
-              "| | | | | | | |",
-              "| meso (cell walls) | not yet: issue 20 | | | | | | | |", "",
+    lines += ["| meso (cell walls) | not yet: issue 20 | | | | | | | |", "",
               *verdict(rows, ref_level), "",
               "![demonstrator ladder](figures/fidelity_ladder_demonstrator.png)", "",
               "![demonstrator shear maps](figures/fidelity_ladder_demonstrator_maps.png)"]
@@ -178,9 +194,10 @@ def main() -> None:
     parser.add_argument("--write", action="store_true", help="update docs/performance.md")
     args = parser.parse_args()
     levels = [drape_level(args.work, "demonstrator", ("--tool", "lower")),
-              *fe_levels(args.work, args.ranks)]
-    ref_level = next((lv for lv in levels if lv.label.endswith(f"{SIZES[-1]} mm")
-                      and lv.force_N is not None), None)
+              *fe_levels(args.work, "implicit", SIZES, args.ranks),
+              *fe_levels(args.work, "explicit", EXPLICIT, args.ranks)]
+    ref_level = next((lv for lv in levels if lv.label == f"macro implicit, {SIZES[-1]} mm"),
+                     None)
     if ref_level is None:
         sys.exit(f"the reference run (implicit, {SIZES[-1]} mm) did not complete")
     rows = differences(levels, ref_level.field)
