@@ -78,6 +78,11 @@ def test_explicit_picture_frame_needs_its_fibres_damped(tmp_path):
     0.8% of the external work and was off by 14% on the negative branch, against 8.5%
     and 35% (measured at 4e3ea81): how fast the ringing grows follows the step's path.
 
+    How much energy the undamped ringing creates depends on the machine's round-off: the
+    same run created 5.6% of the external work on an AMD EPYC and 1.87% on an Intel Xeon
+    (2026-11-27; negative branch off by 32% and 33%), so the contrast asks for ten times
+    the damped run's bound (1%; the damped run: 0.014%), not a fixed 2%.
+
     A failure of the damped run means the damping or its time step changed; of the
     undamped contrast, that the toe no longer rings (then the damping may be moot).
     """
@@ -89,7 +94,7 @@ def test_explicit_picture_frame_needs_its_fibres_damped(tmp_path):
     assert m["shear_curve_rmse_rel_negative"] < 0.08
     bare = _frame(tmp_path / "bare", "explicit.fibre_damping=0", "explicit.bound_every=0")
     b = bare["metrics"]
-    assert bare["status"] == "failed" or (b["energy_balance_error_rel"] > 0.02
+    assert bare["status"] == "failed" or (b["energy_balance_error_rel"] > 0.01
                                           and b["shear_curve_rmse_rel_negative"] > 0.2)
     dt = [np.genfromtxt(p / "history.csv", delimiter=",", names=True)["time_step_s"][0]
           for p in (tmp_path / "damped", tmp_path / "bare")]
