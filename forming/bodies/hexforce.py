@@ -286,9 +286,9 @@ class HexInternalForce:
         A one-point element takes the mean of its cell's points.
         """
         ps = self.body.plastic
-        if ps is None:
-            return
         n = self.ep.shape[0]
+        if ps is None or n == 0:  # (a rank may own no cell of the body)
+            return
         self.ep[:] = ps.ep.reshape(n, -1, 6).mean(axis=1)
         self.evp[:] = ps.evp.reshape(n, -1).mean(axis=1)
         self.ep_trial[:] = self.ep
