@@ -110,24 +110,26 @@ class SpringEscalation:
         for c in self.pairs:
             c.scale_spring(self.scale)
 
+    def _rises(self) -> list[tuple[float, float]]:
+        """The events that stiffened the springs (load parameter, new scale)."""
+        before = [1.0, *(sc for _t, sc in self.events)]
+        return [(t, sc) for (t, sc), b in zip(self.events, before[:-1], strict=True) if sc > b]
+
     def summary(self) -> dict:
         """What ``summary.json`` reports (``timing``-like counters)."""
         if not self.active:
             return {}
-        return {"spring_escalations": sum(1 for i, (_t, s) in enumerate(self.events)
-                                          if s > (self.events[i - 1][1] if i else 1.0)),
-                "spring_scale_max": max((s for _t, s in self.events), default=1.0),
+        return {"spring_escalations": len(self._rises()),
+                "spring_scale_max": max((sc for _t, sc in self.events), default=1.0),
                 "spring_stiffened_steps": self.stiffened_steps}
 
     def warnings(self, where) -> list[str]:
         """The run's warning if the springs were stiffened (``where(t)`` names a point)."""
-        ups = [(t, s) for i, (t, s) in enumerate(self.events)
-               if s > (self.events[i - 1][1] if i else 1.0)]
-        if not ups:
+        if not (ups := self._rises()):
             return []
         names = ", ".join(c.name for c in self.pairs)
         return [f"stabilising springs of {names} stiffened {len(ups)} time(s) (first at "
-                f"{where(ups[0][0])}, up to {max(s for _t, s in ups):g} times their setting) "
-                f"where the step could not be cut further; {self.stiffened_steps} step(s) "
-                "ran stiffened and carry more of the springs' drag (history: spring_scale, "
-                "*_stabilisation_N)"]
+                f"{where(ups[0][0])}, up to {max(sc for _t, sc in ups):g} times their "
+                f"setting) where the step could not be cut further; {self.stiffened_steps} "
+                "step(s) ran stiffened and carry more of the springs' drag (history: "
+                "spring_scale, *_stabilisation_N)"]
