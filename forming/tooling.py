@@ -7,6 +7,9 @@ same tooling serves the core, the sandwich and, later, meso-scale blanks.
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Literal
 
@@ -32,6 +35,35 @@ def generated_dir() -> Path:
     return Path(env) if env else Path(__file__).resolve().parents[1] / "meshes" / "generated"
 
 
+def write_once(directory: Path, names: tuple[str, ...],
+               writer: Callable[[Path], None]) -> None:
+    """Fill ``directory`` with the files ``names`` by ``writer``, unless they are all there.
+
+    The files are written into a fresh sibling folder that is then renamed into place, so
+    a run (or a test worker) that finds the folder finds it complete: two processes that
+    generate the same tools at once each write their own copy, the first rename wins and
+    the other copy is discarded.
+    """
+    if all((directory / n).is_file() for n in names):
+        return
+    directory.parent.mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", dir=directory.parent))
+    try:
+        writer(scratch)
+        missing = [n for n in names if not (scratch / n).is_file()]
+        if missing:
+            raise RuntimeError(f"writing {directory} did not give {', '.join(missing)}")
+        if directory.exists() and not all((directory / n).is_file() for n in names):
+            shutil.rmtree(directory, ignore_errors=True)  # an incomplete folder of old
+        try:
+            scratch.rename(directory)
+        except OSError:
+            if not all((directory / n).is_file() for n in names):
+                raise  # not another writer's complete copy: a real failure
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
 def _surface_tools(tools: HemisphereToolSet, source: Source, tess: Tessellation,
                    top: float, bottom: float) -> dict[str, SurfaceTool]:
     """The hemisphere tools read back from generated STL or STEP files, placed."""
@@ -39,8 +71,9 @@ def _surface_tools(tools: HemisphereToolSet, source: Source, tess: Tessellation,
     directory = generated_dir() / "tools" / tools.key(tess)
 
     def write() -> None:
-        if not (directory / "holder.step").is_file():
-            hemisphere_tool_files(directory, tools, tess)
+        write_once(directory, tuple(f"{n}{s}" for n in ("punch", "die", "holder")
+                                    for s in (".stl", ".step")),
+                   lambda d: hemisphere_tool_files(d, tools, tess))
 
     on_root(comm, write, gmsh_field="tools")  # the others wait for the files
     suffix = ".stl" if source == "stl" else ".step"

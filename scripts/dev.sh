@@ -135,7 +135,10 @@ case "$cmd" in
     test)
         rc=0
         "$venv/bin/ruff" check --quiet . || rc=$?
-        "$venv/bin/python" -m pytest "$@" || { r=$?; [[ $rc -eq 0 ]] && rc=$r; }
+        # Two workers (CI has two cores; FORMING_TEST_WORKERS=0 runs them in this process),
+        # each test given to whichever worker is free, so the longest ones do not queue.
+        "$venv/bin/python" -m pytest -n "${FORMING_TEST_WORKERS:-2}" --dist worksteal "$@" \
+            || { r=$?; [[ $rc -eq 0 ]] && rc=$r; }
         if [[ $rc -eq 5 ]]; then
             echo "dev.sh: error: pytest collected no tests (exit 5); failing so CI cannot pass silently" >&2
             exit 1

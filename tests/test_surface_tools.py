@@ -331,3 +331,39 @@ def test_hemisphere_with_stl_tools_matches_the_analytic_tools(tmp_path):
     assert f[-1] == pytest.approx(f_ref[-1], rel=0.01)
     assert stl["timing"]["contact_search_s"] > 0.0
     assert (tmp_path / "stl" / "tool_punch.pvd").is_file()
+
+
+def test_generated_tool_folders_appear_complete_or_not_at_all(tmp_path):
+    """Generated tool files are written into a scratch folder and renamed into place.
+
+    Two test workers (or two runs) can generate the same hemisphere or demonstrator tools
+    at once. A failure means one of them could read a folder the other is still writing
+    (half an STL), or a failed writer left a partial folder that later runs take as done.
+    """
+    from forming.tooling import write_once
+
+    names = ("a.stl", "b.stl")
+    target = tmp_path / "tools" / "key"
+    calls = []
+
+    def writer(folder):
+        calls.append(folder)
+        for n in names:
+            (folder / n).write_text(n)
+
+    def half_writer(folder):
+        (folder / "a.stl").write_text("a")
+
+    with pytest.raises(RuntimeError, match="b.stl"):
+        write_once(target, names, half_writer)
+    assert not target.exists()
+
+    def racing_writer(folder):  # another process completes the folder meanwhile
+        write_once(target, names, writer)
+        writer(folder)
+
+    write_once(target, names, racing_writer)
+    assert sorted(p.name for p in target.iterdir()) == list(names)
+    assert [p.name for p in target.parent.iterdir()] == ["key"]  # no scratch left behind
+    write_once(target, names, writer)  # complete already: not written again
+    assert len(calls) == 2

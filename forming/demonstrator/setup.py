@@ -23,7 +23,7 @@ from forming.errors import InputError
 from forming.outline import Outline
 from forming.parallel import on_root
 from forming.scene import Contact, Linear, Tool
-from forming.tooling import generated_dir
+from forming.tooling import generated_dir, write_once
 
 
 def shipped_files(component: Component | None = None) -> dict[str, Path]:
@@ -37,8 +37,8 @@ def shipped_files(component: Component | None = None) -> dict[str, Path]:
     comm = MPI.COMM_WORLD
 
     def write() -> None:
-        if not all(f.is_file() for f in files.values()):
-            tool_files(directory, component)
+        write_once(directory, ("lower.stl", "lower.step", "upper.stl", "upper.step",
+                               "trim.csv"), lambda d: tool_files(d, component))
 
     on_root(comm, write, gmsh_field="component")  # the others wait for the files
     return files
