@@ -155,11 +155,17 @@ def shape_differences(imp: dict[str, np.ndarray], exp: dict[str, np.ndarray],
                       thickness: float) -> tuple[dict[str, float], dict[str, np.ndarray]]:
     """Nodal distances between the final shapes, per body and over all bodies.
 
+    The distance is split into its part along z (the tools' closing direction: where the
+    formed surface lies) and its part in plan (where the material points lie on it: a skin
+    that slid farther on a flat flange has moved in plan without changing the part's form).
+
     Returns:
         The figures (``shape_rms_diff_rel_thickness``, ``shape_max_diff_rel_thickness``,
-        and per body ``shape_rms_diff_mm_<body>``), and each body's distances [mm].
+        ``shape_rms_diff_mm_z`` and ``shape_rms_diff_mm_plan``, and per body
+        ``shape_rms_diff_mm_<body>``), and each body's distances [mm].
     """
     dist: dict[str, np.ndarray] = {}
+    along_z: list[np.ndarray] = []
     # a body's nodes are "<body>_X" with "<body>_u"; a fabric's cell field
     # ("<body>_cell_X", "_x", ...) is not a body
     for key in sorted(k for k in imp if k.endswith("_X") and f"{k[:-2]}_u" in imp):
@@ -167,14 +173,18 @@ def shape_differences(imp: dict[str, np.ndarray], exp: dict[str, np.ndarray],
         if key not in exp or exp[key].shape != imp[key].shape or not np.allclose(
                 exp[key], imp[key], atol=1e-6):
             raise InputError("mesh", f"body {name!r}: the two runs have different meshes")
-        dist[name] = np.linalg.norm(exp[f"{name}_u"] - imp[f"{name}_u"], axis=1)
-    every = np.concatenate(list(dist.values()))
+        du = exp[f"{name}_u"] - imp[f"{name}_u"]
+        dist[name] = np.linalg.norm(du, axis=1)
+        along_z.append(du[:, 2])
+    every, z = np.concatenate(list(dist.values())), np.concatenate(along_z)
     figures = {
         "thickness_mm": thickness,
         "shape_rms_diff_mm": float(np.sqrt(np.mean(every**2))),
         "shape_max_diff_mm": float(every.max()),
         "shape_rms_diff_rel_thickness": float(np.sqrt(np.mean(every**2)) / thickness),
         "shape_max_diff_rel_thickness": float(every.max() / thickness),
+        "shape_rms_diff_mm_z": float(np.sqrt(np.mean(z**2))),
+        "shape_rms_diff_mm_plan": float(np.sqrt(np.mean(every**2 - z**2))),
     }
     if len(dist) > 1:
         figures |= {f"shape_rms_diff_mm_{n}": float(np.sqrt(np.mean(d**2)))
@@ -294,11 +304,16 @@ def _report(out: Path, case: str, result: dict, shared, pngs: list[Path],
         "(last interval's means) |",
         f"| final shape: max nodal distance [mm] | | | {r['shape_max_diff_mm']:.4g} "
         f"({r['shape_max_diff_rel_thickness']:.2%} of thickness) |",
+        f"| final shape: RMS distance along z / in plan [mm] | | | "
+        f"{r['shape_rms_diff_mm_z']:.3g} / {r['shape_rms_diff_mm_plan']:.3g} |",
         f"| wall time [s] | {r['wall_s_implicit']:.1f} | {r['wall_s_explicit']:.1f} | "
         f"x{r['wall_s_explicit'] / r['wall_s_implicit']:.2f} |",
         f"| steps / time increments | {r['steps_implicit']} | {r['time_steps_explicit']} | |",
         f"| mass added (explicit) | | {r['mass_added_fraction']:.2%} | |",
     ]
+    lines += [f"| final shape: RMS distance, {k.removeprefix('shape_rms_diff_mm_')} [mm] | | | "
+              f"{r[k]:.3g} |" for k in sorted(r) if k.startswith("shape_rms_diff_mm_")
+              and k not in ("shape_rms_diff_mm_z", "shape_rms_diff_mm_plan")]
     for k, v, w in shared:
         rel = f"{(w - v) / abs(v):+.2%}" if v != 0 else ""
         lines.append(f"| {k} | {_fmt(v)} | {_fmt(w)} | {rel} |")

@@ -35,7 +35,11 @@ def test_force_differences_reject_a_zero_reference():
 
 
 def test_shape_differences_measure_nodal_distance_over_thickness():
-    """Two bodies: the RMS runs over all nodes; the thickness is the core's z extent."""
+    """Two bodies: the RMS runs over all nodes; the thickness is the core's z extent.
+
+    The distance splits into its part along z and in plan; a failure means a node's
+    move is counted in the wrong part (or twice).
+    """
     X = np.array([[0, 0, 0], [1, 0, 0], [0, 0, 20.0], [1, 0, 20.0]])
     u = np.zeros((4, 3))
     imp = {"core_X": X, "core_u": u, "skin_X": X[:2], "skin_u": u[:2]}
@@ -50,6 +54,13 @@ def test_shape_differences_measure_nodal_distance_over_thickness():
     assert fig["shape_rms_diff_rel_thickness"] == pytest.approx(0.4 * np.sqrt(4 / 6) / 20)
     assert fig["shape_rms_diff_mm_core"] == pytest.approx(0.4)
     assert set(dist) == {"core", "skin"}
+    assert fig["shape_rms_diff_mm_z"] == pytest.approx(fig["shape_rms_diff_mm"])
+    assert fig["shape_rms_diff_mm_plan"] == pytest.approx(0.0, abs=1e-12)
+    slid = exp | {"skin_u": np.array([[0.3, 0.0, 0.0], [0.0, 0.0, 0.0]])}
+    fig = shape_differences(imp, slid, h)[0]  # a skin node that slid 0.3 mm in plan
+    assert fig["shape_rms_diff_mm_plan"] == pytest.approx(0.3 / np.sqrt(6))
+    assert fig["shape_rms_diff_mm"] ** 2 == pytest.approx(
+        fig["shape_rms_diff_mm_z"] ** 2 + fig["shape_rms_diff_mm_plan"] ** 2)
 
 
 def test_shape_differences_skip_a_fabric_cell_field():
