@@ -246,10 +246,16 @@ class Simulation:
         return res
 
     def _fail(self, reason: str, res: StepResult) -> StepResult:
-        """Stop the run at the last converged state (already restored)."""
+        """Stop the run at the last converged state (already restored), and checkpoint it.
+
+        The checkpoint holds that state, not the last periodic one: a run resumed from it
+        (after a change to the code, or to study the state in Python) starts where the
+        failure left it.
+        """
         self.status, self.reason = "failed", reason
         self.model.set_load(self.stepper.t)  # tools and prescribed values back to it
         log.error("run stopped: %s", reason)
+        self.save_checkpoint("the last converged step of a failed run")
         return res
 
     def run(self) -> dict:

@@ -105,6 +105,9 @@ def test_failed_run_keeps_the_last_converged_state(tmp_path):
     last accepted step, ``final_shape.npz`` holds that step's displacement, and the
     reaction recomputed from the kept state equals the one recorded for it.
 
+    The checkpoint on disk is that state too (not the last periodic one): restored into
+    a fresh simulation of the same job, it gives the kept displacement exactly.
+
     A failure means the output mixes the failed iterate with the converged state.
     """
     foam = honeycomb_core("isotropic", nu=0.3)
@@ -129,6 +132,11 @@ def test_failed_run_keeps_the_last_converged_state(tmp_path):
     np.testing.assert_allclose(u[top, 2], -8.0 * sim.t, rtol=0, atol=1e-12)
     assert sim.model.dirichlet.reaction("top_z") == pytest.approx(last["reaction_top_z_N"],
                                                                   rel=1e-12)
+    assert summary["checkpoint"]["step"] == summary["timing"]["steps"]
+    assert summary["checkpoint"]["t"] == sim.t and "failed" in summary["checkpoint"]["reason"]
+    resumed = Simulation(job, tmp_path, "doomed", restart=True)
+    assert resumed.t == sim.t
+    np.testing.assert_array_equal(resumed.model.body.nodal_displacements(), u)
 
 
 def test_a_column_written_twice_is_an_error(tmp_path):
