@@ -231,26 +231,25 @@ def _plots(out: Path, response, curves, exp: RunResult, dist: dict, shape: dict,
             ("energy_balance_Nmm", "balance (error)", "m:"))]
         paths.append(plot_curves(out / "explicit_energies.png", series, "load parameter",
                                  "energy [N mm]", f"{case}: explicit energies"))
-    # where the final shapes differ: nodes in plan view, coloured by distance
-    fig, ax = plt.subplots(figsize=(6.4, 5.2), dpi=120)
+    # where the final shapes differ: each body's nodes in plan view (one panel a body: the
+    # skins lie over the core), coloured by the largest distance through the thickness
+    n = len(dist)
+    fig, axes = plt.subplots(1, n, figsize=(4.2 * n + 1.2, 4.6), dpi=120, squeeze=False,
+                             sharey=True, layout="constrained")
     vmax = max(float(d.max()) for d in dist.values()) or 1.0
-    marks = "osD^v<>"
-    for i, (name, d) in enumerate(dist.items()):
-        # one marker per node column: the largest distance through the thickness
+    for ax, (name, d) in zip(axes[0], dist.items(), strict=True):
         xy, col = np.unique(np.round(shape[f"{name}_X"][:, :2], 6), axis=0,
                             return_inverse=True)
         dmax = np.zeros(len(xy))
         np.maximum.at(dmax, col.ravel(), d)
-        sc = ax.scatter(xy[:, 0], xy[:, 1], c=dmax, s=10, marker=marks[i % len(marks)],
-                        vmin=0.0, vmax=vmax, cmap="viridis", label=name)
-    fig.colorbar(sc, ax=ax, label="|u_explicit - u_implicit| [mm]")
-    ax.set_xlabel("x [mm]")
-    ax.set_ylabel("y [mm]")
-    ax.set_aspect("equal")
-    ax.set_title(f"{case}: final shape difference (max through the thickness)")
-    if len(dist) > 1:
-        ax.legend(loc="upper right")
-    fig.tight_layout()
+        sc = ax.scatter(xy[:, 0], xy[:, 1], c=dmax, s=18, vmin=0.0, vmax=vmax,
+                        cmap="viridis")
+        ax.set_title(f"{name}: RMS {np.sqrt(np.mean(d**2)):.3g} mm", fontsize=10)
+        ax.set_xlabel("x [mm]")
+        ax.set_aspect("equal")
+    axes[0][0].set_ylabel("y [mm]")
+    fig.colorbar(sc, ax=axes[0].tolist(), label="|u_explicit - u_implicit| [mm]")
+    fig.suptitle(f"{case}: final shape difference (largest through the thickness)")
     fig.savefig(out / "shape_difference.png")
     plt.close(fig)
     paths.append(out / "shape_difference.png")
