@@ -53,6 +53,7 @@ def write_once(directory: Path, names: tuple[str, ...],
         missing = [n for n in names if not (scratch / n).is_file()]
         if missing:
             raise RuntimeError(f"writing {directory} did not give {', '.join(missing)}")
+        scratch.chmod(0o755)  # mkdtemp's folder is the owner's alone; the tools are not
         if directory.exists() and not all((directory / n).is_file() for n in names):
             shutil.rmtree(directory, ignore_errors=True)  # an incomplete folder of old
         try:

@@ -365,5 +365,6 @@ def test_generated_tool_folders_appear_complete_or_not_at_all(tmp_path):
     write_once(target, names, racing_writer)
     assert sorted(p.name for p in target.iterdir()) == list(names)
     assert [p.name for p in target.parent.iterdir()] == ["key"]  # no scratch left behind
+    assert target.stat().st_mode & 0o777 == 0o755  # readable by others, as any folder
     write_once(target, names, writer)  # complete already: not written again
     assert len(calls) == 2
