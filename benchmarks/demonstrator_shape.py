@@ -20,7 +20,7 @@ each mesh's two default runs gives the issue's figures.
 Runs are kept in ``--work`` (``results/demonstrator_shape``); a completed run there is
 reused. ``--write`` writes the ``demonstrator_shape`` section of docs/validation.md.
 
-Run alone: ``python benchmarks/demonstrator_shape.py --write`` (about an hour on 2
+Run alone: ``python benchmarks/demonstrator_shape.py --write`` (about 70 minutes on 2
 cores from nothing).
 """
 
