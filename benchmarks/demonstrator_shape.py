@@ -106,7 +106,7 @@ def _shape(folder: Path) -> dict[str, np.ndarray]:
 
 def _row(run: Run, summary: dict, ref: dict[str, np.ndarray], folder: Path) -> str:
     if summary.get("status") != "completed":
-        return f"| {run.label} | {summary.get('status', 'not run')} |" + " |" * 11
+        return f"| {run.label} | {summary.get('status', 'not run')} |" + " |" * 10
     m, t = summary["metrics"], summary["timing"]
     f = shape_differences(ref, _shape(folder), THICKNESS)[0]
     stiffened = t.get("spring_stiffened_steps", 0)

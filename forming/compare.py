@@ -166,6 +166,7 @@ def shape_differences(imp: dict[str, np.ndarray], exp: dict[str, np.ndarray],
     """
     dist: dict[str, np.ndarray] = {}
     along_z: list[np.ndarray] = []
+    in_plan: list[np.ndarray] = []
     # a body's nodes are "<body>_X" with "<body>_u"; a fabric's cell field
     # ("<body>_cell_X", "_x", ...) is not a body
     for key in sorted(k for k in imp if k.endswith("_X") and f"{k[:-2]}_u" in imp):
@@ -176,7 +177,9 @@ def shape_differences(imp: dict[str, np.ndarray], exp: dict[str, np.ndarray],
         du = exp[f"{name}_u"] - imp[f"{name}_u"]
         dist[name] = np.linalg.norm(du, axis=1)
         along_z.append(du[:, 2])
+        in_plan.append(np.linalg.norm(du[:, :2], axis=1))
     every, z = np.concatenate(list(dist.values())), np.concatenate(along_z)
+    plan = np.concatenate(in_plan)
     figures = {
         "thickness_mm": thickness,
         "shape_rms_diff_mm": float(np.sqrt(np.mean(every**2))),
@@ -184,7 +187,7 @@ def shape_differences(imp: dict[str, np.ndarray], exp: dict[str, np.ndarray],
         "shape_rms_diff_rel_thickness": float(np.sqrt(np.mean(every**2)) / thickness),
         "shape_max_diff_rel_thickness": float(every.max() / thickness),
         "shape_rms_diff_mm_z": float(np.sqrt(np.mean(z**2))),
-        "shape_rms_diff_mm_plan": float(np.sqrt(np.mean(every**2 - z**2))),
+        "shape_rms_diff_mm_plan": float(np.sqrt(np.mean(plan**2))),
     }
     if len(dist) > 1:
         figures |= {f"shape_rms_diff_mm_{n}": float(np.sqrt(np.mean(d**2)))
