@@ -187,6 +187,7 @@ def test_explicit_small_sliding_sled_holds_the_friction_coefficient(tmp_path):
     assert s["metrics"]["energy_balance_error_rel"] < 1e-4
 
 
+@pytest.mark.slow  # 53-64 s on a 2-core Intel Xeon (41,363 increments of 1.2e-6 s)
 def test_explicit_sled_with_its_core_damped_keeps_the_coefficient_to_the_end(tmp_path):
     """The skin sled's full 2 mm pull in 0.05 s (an eighth of its default time) with its
     default damping of the held core (1e4 1/s on ``core`` alone): the drag over the
@@ -199,6 +200,12 @@ def test_explicit_sled_with_its_core_damped_keeps_the_coefficient_to_the_end(tmp
     0.1% of the external work (0.004% at the default 0.4 s). A failure means the
     damping reaches the dragged skin (a biased drag) or no longer reaches the core (a
     lost coefficient).
+
+    In ``scripts/dev.sh validate``, not the suite: it alone took 9% of the suite's
+    wall on 2 workers. The suite keeps the damped sled at 0.02 s
+    (:func:`test_explicit_small_sliding_sled_holds_the_friction_coefficient`, 5%).
+    Half the drag in half the time ended at 0.514 (1.2% low), and mass scaling to
+    2.4e-6 s at 0.446 (the damping is mass-proportional): neither keeps the 1%.
     """
     s = run_case("skin_sled", tmp_path, ["solver=explicit", "explicit.loading_time=0.05"])
     assert s["status"] == "completed", s["reason"]

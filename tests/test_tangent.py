@@ -146,3 +146,34 @@ def test_unknown_tangent_is_refused():
 
     with pytest.raises(InputError, match="tangent"):
         evaluate(honeycomb_core(), np.eye(3).reshape(1, 9), tangent="secant")
+
+
+@pytest.mark.parametrize("measure", ["hencky", "biot", "biot-hencky"])
+def test_isotropic_shortcuts_equal_the_rotated_stiffness(measure):
+    """An isotropic stiffness is copied into the eigenframe instead of rotated, and its
+    tangent at a stress coaxial with C is built from the normal block and the diagonal
+    shear block (``kernels/closed.py``, ``_coaxial_tangent``). Against the general path
+    (the same stiffness made anisotropic by 1e-12, beyond the isotropy check's 1e-14, so
+    it is rotated), stress and tangent agree to 1e-9 relative at large, near-equal and
+    elastic states. A failure means a shortcut drops a term the rotation keeps."""
+    from forming.materials import kernels
+    from forming.materials.solids import measure_code
+
+    material = honeycomb_core("isotropic", plastic=False, strain_measure=measure)
+    cel = material.kernel_data().cel
+    skewed = cel.copy()
+    skewed[0, 0] *= 1.0 + 1e-12
+    rng = np.random.default_rng(11)
+    cm = np.concatenate([_states(kind, rng, measure)
+                         for kind in ("elastic", "large", "near_equal")])
+    code = measure_code(measure)
+    out = []
+    for c in (cel, skewed):
+        s, d = np.empty((len(cm), 6)), np.empty((len(cm), 36))
+        nbad, _ = kernels.elastic_points(cm, c, code, s, d, kernels.TANGENT_CLOSED, H)
+        assert nbad == 0
+        out.append((s, d))
+    (s0, d0), (s1, d1) = out
+    assert np.abs(s0 - s1).max() <= 1e-9 * np.abs(s1).max()
+    err = np.abs(d0 - d1).max(axis=1) / np.abs(d1).max(axis=1)
+    assert err.max() < 1e-9, (int(err.argmax()), float(err.max()))

@@ -28,7 +28,7 @@ import math
 from .common import _inner
 from .curve import hermite_eval
 from .foam import PROP_ALPHA, PROP_PT, PROP_VISC, _yield_radius
-from .mandel import _MI, _MJ, SQRT2, _dot6
+from .mandel import _MI, _MJ, SQRT2, _dot6, _is_isotropic
 from .strain import MEASURE_BIOT, MEASURE_BIOT_HENCKY, MEASURE_HENCKY
 
 _INV_SQRT2 = 1.0 / SQRT2
@@ -271,12 +271,66 @@ def elastic_tangent(d_out, ip, c, t, s_fac, c_eig, rot, measure, w, mt, tmp):
         mt: (6, 6) scratch.
         tmp: (6, 6) scratch.
     """
+    tiny = 1e-14 * max(abs(t[0]), abs(t[1]), abs(t[2]))
+    if (max(abs(t[3]), abs(t[4]), abs(t[5])) <= tiny and _is_isotropic(c_eig)):
+        _coaxial_tangent(d_out, ip, c, t, s_fac, c_eig, rot, measure, mt, tmp)
+        return
     geometric_terms(c, t, s_fac, t, measure, False, w)
     gs = w[6]
     for i in range(6):
         for j in range(6):
             mt[i, j] = s_fac[i] * c_eig[i, j] * 0.5 * s_fac[j] + gs[i, j]
     _write_global(d_out, ip, rot, mt, tmp)
+
+
+@_inner
+def _f2_sorted(c, th, a, b, e, measure):
+    """``f2(a, b, e)``: :func:`strain_f2` of the eigenvalues of indices a, b, e, sorted."""
+    i0, i1, i2 = a, b, e
+    if c[i0] < c[i1]:
+        i0, i1 = i1, i0
+    if c[i1] < c[i2]:
+        i1, i2 = i2, i1
+    if c[i0] < c[i1]:
+        i0, i1 = i1, i0
+    return strain_f2(c[i0], c[i1], c[i2], th[i0][i1], th[i1][i2], measure)
+
+
+@_inner
+def _coaxial_tangent(d_out, ip, c, t, s_fac, c_eig, rot, measure, mt, tmp):
+    """:func:`elastic_tangent` of an isotropic stiffness and a stress coaxial with C.
+
+    T is diagonal in the eigenframe, so ``G_S`` is diagonal (normal columns ``4 T_a
+    f2(a, a, a)``, shear ``2 (T_a f2(a, a, b) + T_b f2(a, b, b))``) and the eigenframe
+    tangent is a 3x3 normal block plus a diagonal shear block, whose rotation to the
+    global frame (symmetric) costs a third of a full 6x6 one.
+    """
+    th = ((0.5 * s_fac[0], 0.5 * s_fac[5], 0.5 * s_fac[4]),
+          (0.5 * s_fac[5], 0.5 * s_fac[1], 0.5 * s_fac[3]),
+          (0.5 * s_fac[4], 0.5 * s_fac[3], 0.5 * s_fac[2]))
+    for i in range(3):
+        for j in range(3):
+            mt[i, j] = s_fac[i] * c_eig[i, j] * 0.5 * s_fac[j]
+        mt[i, i] += 4.0 * t[i] * _f2_sorted(c, th, i, i, i, measure)
+    for k in range(3, 6):
+        a = _MI[k]
+        b = _MJ[k]
+        g = 2.0 * (t[a] * _f2_sorted(c, th, a, a, b, measure)
+                   + t[b] * _f2_sorted(c, th, a, b, b, measure))
+        mt[k, k] = s_fac[k] * c_eig[k, k] * 0.5 * s_fac[k] + g
+    # tmp[:, :3] = R_N M_NN, tmp[:, 3:] = R_S diag(M_SS)
+    for i in range(6):
+        for b in range(3):
+            tmp[i, b] = rot[i, 0] * mt[0, b] + rot[i, 1] * mt[1, b] + rot[i, 2] * mt[2, b]
+        for k in range(3, 6):
+            tmp[i, k] = rot[i, k] * mt[k, k]
+    for i in range(6):
+        for j in range(i, 6):
+            s = 0.0
+            for k in range(6):
+                s += tmp[i, k] * rot[j, k]
+            d_out[ip, 6 * i + j] = 2.0 * s
+            d_out[ip, 6 * j + i] = 2.0 * s
 
 
 @_inner

@@ -19,3 +19,6 @@ STATUS_RETURN_MAP = 2  # local Newton of the return mapping did not converge
 # #2345), which cost more than the arithmetic of these kernels. Allocating in such a
 # function is a compile error ("NRT required but not enabled").
 _inner = numba.njit(cache=True, _nrt=False)
+# Small helpers on the hot path of every point are inlined into their callers (numba
+# IR inlining): a call passing several arrays cost about as much as their work.
+_inlined = numba.njit(cache=True, _nrt=False, inline="always")

@@ -8,7 +8,7 @@ of the rotated stiffness are formed.
 from __future__ import annotations
 
 from .common import STATUS_INVERTED, STATUS_OK, _inner
-from .mandel import _ZERO6, _mandel_rotation_into, _mul6, _mv6, _rtcr
+from .mandel import _ZERO6, _mandel_rotation_into, _mul6, _mv6, _stiffness_in_frame
 from .strain import _kinematics
 
 
@@ -37,7 +37,7 @@ def _elastic_state(c, q, cel, measure, rot, cr, c_eig, ncol):
     _mandel_rotation_into(q, rot)
     # The eigenframe strain has no shear part: T needs the first 3 columns only (the
     # dropped terms are signed zeros, which leave a sum started at +0.0 unchanged).
-    _rtcr(rot, cel, cr, c_eig, ncol)
+    _stiffness_in_frame(rot, cel, cr, c_eig, ncol)
     e0, e1, e2 = e_eig[0], e_eig[1], e_eig[2]
     t0 = 0.0 + c_eig[0, 0] * e0 + c_eig[0, 1] * e1 + c_eig[0, 2] * e2
     t1 = 0.0 + c_eig[1, 0] * e0 + c_eig[1, 1] * e1 + c_eig[1, 2] * e2

@@ -18,7 +18,17 @@ from .common import STATUS_INVERTED, STATUS_OK, STATUS_RETURN_MAP, _inner
 from .curve import hermite_eval
 from .foam_bound import _phi_bound_data, _phi_surely_positive
 from .linalg import _lu_resolve6, _lu_solve6x2
-from .mandel import _ZERO6, _axpy6, _dot6, _mandel_rotation_into, _mtv6, _mul6, _mv6, _rtcr, _sub6
+from .mandel import (
+    _ZERO6,
+    _axpy6,
+    _dot6,
+    _mandel_rotation_into,
+    _mtv6,
+    _mul6,
+    _mv6,
+    _stiffness_in_frame,
+    _sub6,
+)
 from .strain import _kinematics
 
 # Indices into ``props``, the foam's scalar parameters (built by
@@ -308,7 +318,7 @@ def _foam_trial(c, q, ep_old, cel, measure, rot, cr, c_eig):
     if not ok:
         return False, s_fac, k_fac, _ZERO6, _ZERO6
     _mandel_rotation_into(q, rot)
-    _rtcr(rot, cel, cr, c_eig, 6)
+    _stiffness_in_frame(rot, cel, cr, c_eig, 6)
     ep_eig = _mtv6(rot, ep_old)
     t_tr = _mv6(c_eig, _sub6(e_eig, ep_eig))
     return True, s_fac, k_fac, ep_eig, t_tr

@@ -14,7 +14,7 @@ import math
 import numba
 import numpy as np
 
-from .common import _inner
+from .common import _inlined, _inner
 
 SQRT2 = math.sqrt(2.0)
 # Mandel index -> (a, b) tensor indices.
@@ -154,6 +154,41 @@ def _rtcr(r, c, cr, out, ncol):
             for k in range(6):
                 s += r[k, i] * cr[k, j]
             out[i, j] = s
+
+
+@_inlined
+def _is_isotropic(c):
+    """Whether a Mandel stiffness is isotropic: the same in every frame (to 1e-14).
+
+    Isotropic: ``c[:3, :3] = lambda + 2 mu I``, ``c[3:, 3:] = 2 mu I``, nothing else.
+    """
+    tol = 1e-14 * abs(c[0, 0])
+    d, o = c[0, 0], c[0, 1]
+    g = d - o
+    for i in range(6):
+        for j in range(6):
+            if i < 3 and j < 3:
+                want = d if i == j else o
+            else:
+                want = g if i == j else 0.0
+            if abs(c[i, j] - want) > tol:
+                return False
+    return True
+
+
+@_inlined
+def _stiffness_in_frame(r, c, cr, out, ncol):
+    """The first ``ncol`` columns of ``r.T @ c @ r`` (:func:`_rtcr`).
+
+    An isotropic ``c``, the same in every frame, is copied instead of rotated (two 6x6
+    products saved).
+    """
+    if _is_isotropic(c):
+        for i in range(6):
+            for j in range(ncol):
+                out[i, j] = c[i, j]
+        return
+    _rtcr(r, c, cr, out, ncol)
 
 
 @_inner
