@@ -245,6 +245,18 @@ def test_bound_every_is_a_share_of_the_load():
     assert ExplicitOptions(bound_every=0.0).bound_every == 0.0
 
 
+def test_friction_filter_is_a_time():
+    """``explicit.friction_filter`` is a time constant in seconds: a negative or
+    non-finite one is refused with the field named (0 switches the filter off)."""
+    from forming.errors import InputError
+    from forming.solver.options import ExplicitOptions
+
+    for bad in (-1e-3, float("inf"), float("nan")):
+        with pytest.raises(InputError, match="explicit.friction_filter"):
+            ExplicitOptions(friction_filter=bad)
+    assert ExplicitOptions().friction_filter == 0.0
+
+
 def _pressed_layer(tmp, solver: str):
     """A 0.4 mm elastic layer under 10 mm elements (nu = 0) pressed on a rigid table by
     0.05 MPa; returns the summary and the history."""

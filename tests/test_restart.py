@@ -263,6 +263,31 @@ def test_explicit_restart_is_exact(tmp_path):
         assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), column
 
 
+def test_explicit_restart_keeps_the_filtered_friction_pressure(tmp_path):
+    """The explicit skin sled with its friction reading a filtered pressure
+    (``explicit.friction_filter``, 0.5 ms over a 5 ms load): the filter's values are
+    solver state, so a run resumed from output interval 20 of 50 repeats the
+    uninterrupted history (asserted 1e-8). A failure means the filtered pressure is
+    not in the checkpoint (the resumed friction restarts from zero pressure)."""
+    case = "skin_sled"
+    sets = ["solver=explicit", "explicit.loading_time=0.005", "explicit.friction_filter=5e-4"]
+    job, params = prepare_case(case, sets)
+    job = dataclasses.replace(job, pictures=None, plots=None, checkpoint_every=20)
+    ref = Simulation(job, tmp_path / "uninterrupted", case, params, sets)
+    ref.run()
+    sim = Simulation(job, tmp_path / "stopped", case, params, sets)
+    while sim.stepper.n_accepted < 25:
+        sim.step()
+    sim.finish()
+    sim = Simulation(job, tmp_path / "stopped", case, params, sets, restart=True)
+    assert sim.stepper.n_accepted == 20
+    sim.run()
+    assert len(sim.recorder.rows) == len(ref.recorder.rows)
+    for column in ("reaction_skin_top_top_x_N", "energy_friction_Nmm", "energy_kinetic_Nmm"):
+        a, b = ref.recorder.column(column), sim.recorder.column(column)
+        assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), column
+
+
 def test_restart_of_a_stabilised_fracturing_run_is_exact(tmp_path):
     """A block of fracturing cardboard pulled past its fracture strain with the viscous
     stabilisation on (the meso walls' setting), stopped after 9 steps and restarted from

@@ -94,6 +94,7 @@ class InterfaceDamping:
     zeta: float
     velocities: tuple[fem.Function, fem.Function]
     areal: tuple[fem.Function, fem.Function]
+    pressure: fem.Function | None = None  # the friction's filtered pressure (None: p)
 
 
 class InterfaceTerm:
@@ -220,6 +221,7 @@ class InterfaceTerm:
         self._shear_forms = [self._form((proj * self.traction)[i] * dS) for i in range(3)]
         self._stab_form = (None if self.stabilisation is None else
                            self._form(ufl.sqrt(ufl.dot(self._stab, self._stab) + 1e-30) * dS))
+        self._p_filtered: fem.Function | None = None  # explicit.friction_filter
         self._p_new = None if self.lam_n is None else np.zeros_like(self.lam_n.x.array)
         self._t_new = None if self.lam_t is None else np.zeros_like(self.lam_t.x.array)
 
@@ -256,7 +258,8 @@ class InterfaceTerm:
         r1, r2 = self.side_residuals(tests[self.spec.body], tests[self.spec.other])
         return {self.spec.body: r1, self.spec.other: r2}
 
-    def damping(self, zeta: float, masses: tuple[np.ndarray, np.ndarray]) -> InterfaceDamping:
+    def damping(self, zeta: float, masses: tuple[np.ndarray, np.ndarray],
+                filtered: bool = False) -> InterfaceDamping:
         """Damping of the nodes' relative normal approach at ``zeta`` of critical.
 
         Each pair of nodes is a two-mass oscillator on the penalty spring: its critical
@@ -266,6 +269,8 @@ class InterfaceTerm:
         Args:
             zeta: Fraction of critical damping.
             masses: The lumped masses of the first and the second body (3 per node) [t].
+            filtered: The friction reads the pressure through a low-pass filter
+                (:meth:`filter_pressure`), not the pressure of the increment.
         """
         ones = ufl.as_vector([1.0, 1.0, 1.0])
         areal = []
@@ -276,8 +281,32 @@ class InterfaceTerm:
             on = area > 0
             a.x.array[on] = m[on] / area[on]
             areal.append(a)
+        if filtered and self.friction > 0.0 and self._p_filtered is None:
+            self._p_filtered = fem.Function(self.lam_n.function_space,
+                                            name="interface_filtered_pressure")
         return InterfaceDamping(zeta, (fem.Function(self.first.V),
-                                       fem.Function(self.second.V)), tuple(areal))
+                                       fem.Function(self.second.V)), tuple(areal),
+                                self._p_filtered if filtered else None)
+
+    def filter_pressure(self, weight: float) -> None:
+        """Move the filtered pressure towards the nodal pressure now by ``weight``.
+
+        An exponential moving average: ``weight = dt / (tau + dt)`` per increment is a
+        low-pass filter of time constant ``tau`` (explicit runs,
+        ``explicit.friction_filter``).
+        """
+        if self._p_filtered is None:
+            return
+        p = self._nodal(self._p_form, 1)
+        d = self._dofs
+        arr = self._p_filtered.x.array
+        arr[d] += weight * (p[d] - arr[d])
+        self._p_filtered.x.scatter_forward()
+
+    @property
+    def filtered_pressure(self) -> fem.Function | None:
+        """The friction's filtered nodal pressure (explicit runs that filter it), or None."""
+        return self._p_filtered
 
     def damped_residuals(self, tests: dict, damping: InterfaceDamping) -> dict[str, ufl.Form]:
         """As :meth:`residuals`, with a viscous traction on the nodes' approach (explicit).
@@ -285,8 +314,9 @@ class InterfaceTerm:
         A frictional or frictionless interface adds ``-c dg/dt`` to the trial pressure
         where the node penetrates (it never pulls, and it does not push before contact);
         the friction limit stays with the penalty pressure, so the committed friction
-        history is the one applied. A bonded interface's tie gets ``-c`` times the whole
-        relative velocity.
+        history is the one applied, or, with ``damping.pressure``, with that pressure
+        filtered in time. A bonded interface's tie gets ``-c`` times the whole relative
+        velocity.
         """
         a1, a2 = damping.areal[0][0], damping.areal[1][0]
         c = 2.0 * damping.zeta * ufl.sqrt(self._eps * a1("+") * a2("-") / (a1("+") + a2("-")))
@@ -299,7 +329,10 @@ class InterfaceTerm:
             pressure = self._ramp(trial)
             traction = pressure * self.normal
             if self.friction > 0.0:  # the same elastic slip, at the damped pressure
-                traction = traction - (self.friction / self.elastic_slip) * pressure * self._s_el
+                # or at the filtered one: a stick spring whose stiffness follows a ringing
+                # pressure is a parametric oscillator that the ringing feeds
+                p_f = pressure if damping.pressure is None else damping.pressure("+")
+                traction = traction - (self.friction / self.elastic_slip) * p_f * self._s_el
             if self._stab is not None:
                 traction = traction + self._stab
         v1, v2 = tests[self.spec.body], tests[self.spec.other]

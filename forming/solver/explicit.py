@@ -75,8 +75,7 @@ class ExplicitSolver:
                              "alone: build its model with Model(scene, penalty_only=True)")
         self.model = model
         self.options = opts = options or ExplicitOptions()
-        comm = model.comm
-        self.comm = comm
+        self.comm = model.comm
         bcs = {n: [bc for bc, b in zip(model.dirichlet.bcs, model.dirichlet.bc_bodies,
                                        strict=True) if b == n] for n in model.names}
         self.states = [BodyState(n, model.bodies[n], bcs[n]) for n in model.names]
@@ -98,7 +97,9 @@ class ExplicitSolver:
         # tool contacts node by node: tool work and friction energy
         zeta_c = opts.contact_damping  # the normal approach of contacts, damped
         self._tools = [ToolTerm(by_name[c.spec.body], c, zeta_c) for c in model.contacts]
-        self._sides = lumped.interface_terms(model.interfaces, by_name, tests, emaps, zeta_c)
+        self._sides = lumped.interface_terms(model.interfaces, by_name, tests, emaps, zeta_c,
+                                             opts.friction_filter > 0 and zeta_c > 0)
+        self._filters = lumped.PressureFilters(model.interfaces, opts.friction_filter)
         # distributed loads: external forces that are neither contact nor interface
         self._loads = [ExternalTerm(by_name[tr.body], fem.form(
             -ufl.dot(const, tests[tr.body]) * ds, entity_maps=emaps))
@@ -227,6 +228,7 @@ class ExplicitSolver:
         for loop in self._loop_list:
             loop.commit()
         model.commit(exclude=self._own)
+        self._filters.advance(dt)
         self.time_steps += 1
 
     def _account(self, dt: float, tool_old: list[np.ndarray]) -> None:
@@ -370,12 +372,13 @@ class ExplicitSolver:
                 [loop.state() for loop in self._loop_list],
                 self.tau, self.ledger.state(), self.time_steps, self.dt,
                 [self._dt_ref, self._s_bound], self._omega2_ref, self._omega2_now,
-                [t.pair_state_vector() for t in self._selves])
+                [t.pair_state_vector() for t in self._selves], self._filters.state())
 
     def restore(self, snap: tuple) -> None:
         """Return velocities, energies and time to a snapshot; history from the model."""
         (states, terms, tools, loops, self.tau, ledger, self.time_steps, self.dt, ref,
-         self._omega2_ref, self._omega2_now, pair_states) = snap
+         self._omega2_ref, self._omega2_now, pair_states, *filters) = snap
+        self._filters.set_state(filters[0] if filters else self._filters.state())
         # (a checkpoint written before bound_every kept the step alone: bound at once)
         self._dt_ref, self._s_bound = ref if isinstance(ref, list | tuple) else (ref, -1.0)
         for t, arr in zip(self._selves, pair_states, strict=True):
@@ -402,7 +405,7 @@ class ExplicitSolver:
                 [on(t.state) for t in self._tools],
                 [loop.state_layout() for loop in self._loop_list],
                 None, None, None, None, None, None, None,
-                [on(t.state) for t in self._selves])
+                [on(t.state) for t in self._selves], self._filters.layout())
 
     # -- reporting --------------------------------------------------------------------------
     def balance(self) -> float:

@@ -143,7 +143,7 @@ class InterfaceSide(ExternalTerm):
 
 
 def interface_terms(interfaces, states: dict[str, BodyState], tests: dict, emaps,
-                    zeta: float) -> list[ExternalTerm]:
+                    zeta: float, filtered: bool = False) -> list[ExternalTerm]:
     """Both sides of every small-sliding interface, damped at ``zeta`` (0: as implicit).
 
     Args:
@@ -152,6 +152,8 @@ def interface_terms(interfaces, states: dict[str, BodyState], tests: dict, emaps
         tests: The bodies' test functions, by name.
         emaps: The scene mesh's entity maps (or None).
         zeta: Fraction of critical damping of the nodes' normal approach.
+        filtered: The damped interfaces' friction reads their filtered pressure
+            (``explicit.friction_filter``; the solver advances the filters).
     """
     out: list[ExternalTerm] = []
     for itf in interfaces:
@@ -160,7 +162,7 @@ def interface_terms(interfaces, states: dict[str, BodyState], tests: dict, emaps
                     for name, r in itf.residuals(tests).items()]
             continue
         first, second = (states[b] for b in itf.bodies)
-        damping = itf.damping(zeta, (first.m_phys, second.m_phys))
+        damping = itf.damping(zeta, (first.m_phys, second.m_phys), filtered)
         fills = list(zip(damping.velocities, (first, second), strict=True))
         out += [InterfaceSide(states[name], fem.form(r, entity_maps=emaps), fills)
                 for name, r in itf.damped_residuals(tests, damping).items()]
@@ -301,3 +303,34 @@ class OutsideForms:
             part.r_old[:] = part.r_new
             part.vec.x.array[: part.state.n_owned] = values[sl]
             part.vec.x.scatter_forward()
+
+
+class PressureFilters:
+    """The filtered pressures of the interfaces whose friction reads them (explicit).
+
+    Each is a low-pass filter of time constant ``tau`` of the interface's nodal
+    pressure, advanced once per increment; its values are part of the solver's state.
+    """
+
+    def __init__(self, interfaces, tau: float):
+        self.interfaces = [i for i in interfaces if i.filtered_pressure is not None]
+        self.tau = tau
+
+    def advance(self, dt: float) -> None:
+        """One increment of ``dt`` [s]."""
+        for itf in self.interfaces:
+            itf.filter_pressure(dt / (self.tau + dt))
+
+    def state(self) -> list[np.ndarray]:
+        """Copies of the filtered pressures."""
+        return [i.filtered_pressure.x.array.copy() for i in self.interfaces]
+
+    def set_state(self, arrays: list[np.ndarray]) -> None:
+        """Back to :meth:`state`'s values."""
+        for itf, arr in zip(self.interfaces, arrays, strict=True):
+            itf.filtered_pressure.x.array[:] = arr
+
+    def layout(self) -> list:
+        """Where each filtered pressure lives (its interface's first body's mesh)."""
+        return [i.first.domain.layout(i.filtered_pressure.function_space)
+                for i in self.interfaces]

@@ -177,6 +177,13 @@ class ExplicitOptions:
             viscous pressure ``-c dg/dt`` joins the penalty's while the node touches.
             Undamped, light skin nodes chatter on their penalty springs and lose their
             friction history at every opening. 0: none.
+        friction_filter: Time constant [s] of a low-pass filter on the pressure that
+            the friction of the small-sliding interfaces reads (their stick stiffness
+            ``mu p / s_el`` and slip limit ``mu p``; with ``contact_damping`` > 0). A
+            stick spring whose stiffness follows a ringing pressure is a parametric
+            oscillator the ringing feeds (``sandwich_bending``, docs/validation.md);
+            filtered, the friction lags a changing pressure by about this time. 0: the
+            pressure of each increment.
         output_interval: Load-parameter interval between history rows; None: the job's
             largest load step, at most 0.02.
         bound_every: Load-parameter span between two Gershgorin bounds of the stable
@@ -206,6 +213,7 @@ class ExplicitOptions:
     damped_bodies: tuple[str, ...] = ()
     fibre_damping: float = 0.06
     contact_damping: float = 0.2
+    friction_filter: float = 0.0
     output_interval: float | None = None
     bound_every: float = 0.1
     quasi_static_limit: float = 0.05
@@ -244,6 +252,9 @@ class ExplicitOptions:
         if not (math.isfinite(self.contact_damping) and 0 <= self.contact_damping < 1):
             raise InputError("explicit.contact_damping",
                              f"must lie in [0, 1), got {self.contact_damping!r}")
+        if not (math.isfinite(self.friction_filter) and self.friction_filter >= 0):
+            raise InputError("explicit.friction_filter",
+                             f"must be >= 0 s, got {self.friction_filter!r}")
         if not (math.isfinite(self.bound_every) and 0 <= self.bound_every <= 1):
             raise InputError("explicit.bound_every",
                              f"must lie in [0, 1], got {self.bound_every!r}")
