@@ -265,12 +265,12 @@ def test_explicit_restart_is_exact(tmp_path):
 
 def test_explicit_restart_keeps_the_filtered_friction_pressure(tmp_path):
     """The explicit skin sled with its friction reading a filtered pressure
-    (``explicit.friction_filter``, 0.5 ms over a 5 ms load): the filter's values are
+    (``explicit.friction_filter``, 0.25 ms over a 2.5 ms load): the filter's values are
     solver state, so a run resumed from output interval 20 of 50 repeats the
     uninterrupted history (asserted 1e-8). A failure means the filtered pressure is
     not in the checkpoint (the resumed friction restarts from zero pressure)."""
     case = "skin_sled"
-    sets = ["solver=explicit", "explicit.loading_time=0.005", "explicit.friction_filter=5e-4"]
+    sets = ["solver=explicit", "explicit.loading_time=0.0025", "explicit.friction_filter=2.5e-4"]
     job, params = prepare_case(case, sets)
     job = dataclasses.replace(job, pictures=None, plots=None, checkpoint_every=20)
     ref = Simulation(job, tmp_path / "uninterrupted", case, params, sets)
