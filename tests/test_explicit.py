@@ -150,13 +150,8 @@ def test_several_bodies_balance_energy_and_flag_dynamics(tmp_path):
 
 
 _CHEAP_DEFAULTS = ("core_compression", "core_tension", "core_shear")
-_OPEN = "issue 16: not yet quasi-static with its default loading time (docs/validation.md)"
-_ALL_DEFAULTS = (
-    "core_crushing", "hemisphere", "strip_bending", "skin_sled",
-    pytest.param("sandwich_bending", marks=pytest.mark.xfail(reason=_OPEN, strict=True)),
-    "bias_extension",
-    "picture_frame",
-)
+_ALL_DEFAULTS = ("core_crushing", "hemisphere", "strip_bending", "skin_sled", "sandwich_bending",
+                 "bias_extension", "picture_frame")
 
 
 def _default_explicit_run(case: str, out) -> dict:
