@@ -245,32 +245,14 @@ def test_explicit_restart_is_exact(tmp_path):
     asserted 1e-8). A failure means a part of the solver's snapshot is lost on disk.
     """
     sets = [*CRUSHING, "solver=explicit", "explicit.loading_time=0.005"]
-    job, params = prepare_case(CASE, sets)
-    job = dataclasses.replace(job, pictures=None, plots=None, checkpoint_every=20)
-    ref = Simulation(job, tmp_path / "uninterrupted", CASE, params, sets)
-    ref.run()
-    sim = Simulation(job, tmp_path / "stopped", CASE, params, sets)
-    while sim.stepper.n_accepted < 25:
-        sim.step()
-    sim.finish()
-    sim = Simulation(job, tmp_path / "stopped", CASE, params, sets, restart=True)
-    assert sim.stepper.n_accepted == 20
-    sim.run()
-    assert len(sim.recorder.rows) == len(ref.recorder.rows)
-    for column in ("t", "time_s", FORCE, "energy_internal_Nmm", "energy_friction_Nmm",
-                   "energy_kinetic_Nmm", "work_external_Nmm"):
-        a, b = ref.recorder.column(column), sim.recorder.column(column)
-        assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), column
+    _resumed_equals_uninterrupted(tmp_path, CASE, sets, (
+        "t", "time_s", FORCE, "energy_internal_Nmm", "energy_friction_Nmm",
+        "energy_kinetic_Nmm", "work_external_Nmm"))
 
 
-def test_explicit_restart_keeps_the_filtered_friction_pressure(tmp_path):
-    """The explicit skin sled with its friction reading a filtered pressure
-    (``explicit.friction_filter``, 0.25 ms over a 2.5 ms load): the filter's values are
-    solver state, so a run resumed from output interval 20 of 50 repeats the
-    uninterrupted history (asserted 1e-8). A failure means the filtered pressure is
-    not in the checkpoint (the resumed friction restarts from zero pressure)."""
-    case = "skin_sled"
-    sets = ["solver=explicit", "explicit.loading_time=0.0025", "explicit.friction_filter=2.5e-4"]
+def _resumed_equals_uninterrupted(tmp_path, case: str, sets: list[str], columns) -> None:
+    """Stop a run after output interval 25 of 50, resume it from its checkpoint at 20,
+    and compare the history ``columns`` with an uninterrupted run's (1e-8 relative)."""
     job, params = prepare_case(case, sets)
     job = dataclasses.replace(job, pictures=None, plots=None, checkpoint_every=20)
     ref = Simulation(job, tmp_path / "uninterrupted", case, params, sets)
@@ -283,9 +265,20 @@ def test_explicit_restart_keeps_the_filtered_friction_pressure(tmp_path):
     assert sim.stepper.n_accepted == 20
     sim.run()
     assert len(sim.recorder.rows) == len(ref.recorder.rows)
-    for column in ("reaction_skin_top_top_x_N", "energy_friction_Nmm", "energy_kinetic_Nmm"):
+    for column in columns:
         a, b = ref.recorder.column(column), sim.recorder.column(column)
         assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), column
+
+
+def test_explicit_restart_keeps_the_filtered_friction_pressure(tmp_path):
+    """The explicit skin sled with its friction reading a filtered pressure
+    (``explicit.friction_filter``, 0.25 ms over a 2.5 ms load): the filter's values are
+    solver state, so a run resumed from output interval 20 of 50 repeats the
+    uninterrupted history (asserted 1e-8). A failure means the filtered pressure is
+    not in the checkpoint (the resumed friction restarts from zero pressure)."""
+    sets = ["solver=explicit", "explicit.loading_time=0.0025", "explicit.friction_filter=2.5e-4"]
+    _resumed_equals_uninterrupted(tmp_path, "skin_sled", sets, (
+        "reaction_skin_top_top_x_N", "energy_friction_Nmm", "energy_kinetic_Nmm"))
 
 
 def test_restart_of_a_stabilised_fracturing_run_is_exact(tmp_path):

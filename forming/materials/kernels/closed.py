@@ -136,15 +136,7 @@ def geometric_terms(c, t, s_fac, sig, measure, want_gk, w):
     for a in range(3):
         for b in range(a, 3):
             for e in range(b, 3):
-                # sort the three indices by eigenvalue: hi >= mid >= lo
-                i0, i1, i2 = a, b, e
-                if c[i0] < c[i1]:
-                    i0, i1 = i1, i0
-                if c[i1] < c[i2]:
-                    i1, i2 = i2, i1
-                if c[i0] < c[i1]:
-                    i0, i1 = i1, i0
-                v = strain_f2(c[i0], c[i1], c[i2], th[i0][i1], th[i1][i2], measure)
+                v = _f2_sorted(c, th, a, b, e, measure)
                 f2[a, b, e] = f2[a, e, b] = f2[b, a, e] = v
                 f2[b, e, a] = f2[e, a, b] = f2[e, b, a] = v
     _sym33(t, t33)
@@ -285,7 +277,10 @@ def elastic_tangent(d_out, ip, c, t, s_fac, c_eig, rot, measure, w, mt, tmp):
 
 @_inner
 def _f2_sorted(c, th, a, b, e, measure):
-    """``f2(a, b, e)``: :func:`strain_f2` of the eigenvalues of indices a, b, e, sorted."""
+    """``f2(a, b, e)``: :func:`strain_f2` of the eigenvalues of indices a, b, e, sorted.
+
+    The indices are sorted by eigenvalue (largest first), as :func:`strain_f2` takes them.
+    """
     i0, i1, i2 = a, b, e
     if c[i0] < c[i1]:
         i0, i1 = i1, i0
