@@ -242,7 +242,8 @@ def test_bound_every_is_a_share_of_the_load():
 
 def test_friction_filter_is_a_time():
     """``explicit.friction_filter`` is a time constant in seconds: a negative or
-    non-finite one is refused with the field named (0 switches the filter off)."""
+    non-finite one is refused with the field named (0 switches the filter off), and so
+    is a filter without the contact damping whose interfaces it acts on."""
     from forming.errors import InputError
     from forming.solver.options import ExplicitOptions
 
@@ -250,6 +251,9 @@ def test_friction_filter_is_a_time():
         with pytest.raises(InputError, match="explicit.friction_filter"):
             ExplicitOptions(friction_filter=bad)
     assert ExplicitOptions().friction_filter == 0.0
+    # it acts on the damped interfaces only: without contact damping it would do nothing
+    with pytest.raises(InputError, match="explicit.friction_filter.*contact_damping"):
+        ExplicitOptions(friction_filter=0.005, contact_damping=0.0)
 
 
 def _pressed_layer(tmp, solver: str):

@@ -255,6 +255,9 @@ class ExplicitOptions:
         if not (math.isfinite(self.friction_filter) and self.friction_filter >= 0):
             raise InputError("explicit.friction_filter",
                              f"must be >= 0 s, got {self.friction_filter!r}")
+        if self.friction_filter > 0 and self.contact_damping == 0:
+            raise InputError("explicit.friction_filter", "filters the damped interfaces' "
+                             "friction: it needs explicit.contact_damping > 0 (it is 0)")
         if not (math.isfinite(self.bound_every) and 0 <= self.bound_every <= 1):
             raise InputError("explicit.bound_every",
                              f"must lie in [0, 1], got {self.bound_every!r}")
