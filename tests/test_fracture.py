@@ -155,3 +155,65 @@ def test_viscous_damage_follows_with_its_lag():
     sp = evaluate(slow, c + dc, hist, kappa, cells=ginv, load_increment=0.1, travel=2.0).S
     sm = evaluate(slow, c - dc, hist, kappa, cells=ginv, load_increment=0.1, travel=2.0).S
     assert r.D.reshape(6, 6)[0, 0] == pytest.approx((sp - sm)[0, 0] / (2 * h), rel=1e-6)
+
+
+def _plate_on_block(tmp, layers: int, eroded_above: float | None, approach: float):
+    """A 2 x 2 mm column of ``layers`` 1 mm layers of quadratic hexahedra (E 100 MPa,
+    nu 0, erosion on) on a clamped base, under a frictionless plate on its top face that
+    moves down by ``approach`` mm over the first half of the load and by 0.01 mm more over
+    the second (explicit); the cells above ``eroded_above`` [mm] are eroded before the
+    first step. Returns the summary and the history."""
+    from dolfinx.mesh import compute_midpoints
+
+    from forming.contact.shapes import Plane
+    from forming.job import Job
+    from forming.mesh import box
+    from forming.scene import Body, Contact, Displacement, Scene, Table, Tool
+    from forming.simulation import Simulation
+    from forming.solver.options import ExplicitOptions
+    from forming.solver.stepping import StepControl
+
+    height = float(layers)
+    solid = FracturingSolid(IsotropicElasticity(100.0, 0.0), erosion=True, density=1e-9)
+    scene = Scene("column", box((2.0, 2.0, height), (2, 2, layers)),
+                  (Body("column", solid, degree=2),),
+                  displacements=(Displacement("column", "bottom", x=0.0, y=0.0, z=0.0),),
+                  tools=(Tool("plate", Plane((0.0, 0.0, height), (0.0, 0.0, -1.0)),
+                              z=Table((0.0, 0.5, 1.0), (0.0, -approach, -approach - 0.01))),),
+                  contacts=(Contact("column", "top", "plate"),))
+    job = Job(scene, steps=StepControl(initial=0.1, max=0.1, min=0.1), solver="explicit",
+              explicit=ExplicitOptions(loading_time=1e-3))
+    sim = Simulation(job, tmp, "column")
+    if eroded_above is not None:
+        body = sim.model.body
+        cells = body.point_cells
+        mid = compute_midpoints(body.mesh, 3, cells.astype(np.int32))[:, 2]
+        per_cell = body.n_points // max(len(cells), 1)
+        body.plastic.ep[np.repeat(mid > eroded_above, per_cell), 4] = 1.0
+        body.plastic.restore(body.plastic.snapshot())
+    summary = sim.run()
+    return summary, np.genfromtxt(tmp / "history.csv", delimiter=",", names=True)
+
+
+def test_explicit_tool_meets_the_faces_erosion_uncovers(tmp_path):
+    """A plate pressed through the eroded top layer of a 3-layer column meets the faces the
+    erosion uncovered: moved through the eroded layer's 1 mm, then 0.01 mm into the rest,
+    it carries the force of the 2-layer column pressed by 0.01 mm within 1% (both
+    explicit, the same second half; E A d / 2 = 2 N less the penalty's compliance). The
+    reported penetration is the live surface's (within 5% of the 2-layer column's), not
+    that of the eroded layer's top, which the plate crossed.
+
+    Before the contact followed erosion, the plate met only the top faces, which lie on
+    eroded cells: the force was 0 and the plate passed through (meso_crushing's punch
+    fell through the crushed walls). A failure means the uncovered faces are not found,
+    or their nodal areas are wrong.
+    """
+    s2, two = _plate_on_block(tmp_path / "two", 2, None, 0.0)
+    s3, three = _plate_on_block(tmp_path / "three", 3, 2.0, 1.0)
+    assert s2["status"] == s3["status"] == "completed"
+    force = three["force_plate_z_N"][-1]
+    assert force == pytest.approx(two["force_plate_z_N"][-1], rel=0.01)
+    assert force == pytest.approx(100.0 * 4.0 * 0.01 / 2.0, rel=0.1)
+    # the penetration of the live surface, not of the eroded layer's top the plate crossed
+    assert three["max_penetration_mm"][-1] == pytest.approx(two["max_penetration_mm"][-1],
+                                                            rel=0.05)

@@ -38,6 +38,8 @@ class DeformableBody(Protocol):
         plastic: Its plastic history, or None.
         load_increment: Step in the load parameter (viscous regularisation).
         kernel_seconds: Time spent in its quadrature-point kernel.
+        erodes: Whether its elements can erode (a tool contact then follows the faces
+            that erosion uncovers, :mod:`forming.contact.exposed`).
     """
 
     spec: Body
@@ -49,6 +51,7 @@ class DeformableBody(Protocol):
     n_points: int
     load_increment: float
     kernel_seconds: float
+    erodes: bool
 
     def deformation_gradient(self):
         """UFL deformation gradient."""
@@ -127,6 +130,7 @@ class BodyBase:
 
     plastic = None
     load_increment = 0.0
+    erodes = False
 
     def __init__(self, spec: Body, domain: BodyDomain):
         self.spec = spec

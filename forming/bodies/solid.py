@@ -315,6 +315,11 @@ class SolidBody(BodyBase):
             return np.ones(self.n_points, dtype=bool)
         return self.plastic.ep[:, 4] == 0.0
 
+    @property
+    def erodes(self) -> bool:
+        """True when points can erode: a tool's contact then follows what erosion uncovers."""
+        return bool(self.damaging and self.material.erodes)
+
     def damage(self) -> np.ndarray | None:
         """Converged damage per quadrature point (None unless the material fractures)."""
         return self.plastic.ep[:, 0] if self.damaging else None

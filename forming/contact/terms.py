@@ -17,6 +17,7 @@ from dolfinx import fem, mesh  # noqa: I001
 from mpi4py import MPI
 
 from forming.contact.base import default_penalty
+from forming.contact.exposed import ExposedSurface
 from forming.contact.laws import coulomb_return, normal_pressure, tangent_projector
 from forming.contact.nodal import NodalContact
 from forming.contact.shapes import UFL
@@ -95,6 +96,8 @@ class ContactTerm:
         # nodal integration (the face's nodes are the quadrature points)
         degree = body.spec.degree if self._track is None else 1
         self._ds = body.domain.ds(spec.region, **nodal_rule(degree))
+        self._rule = nodal_rule(degree)
+        self.exposed: ExposedSurface | None = None  # see nodal()
         W = fem.functionspace(msh, ("Lagrange", degree))
         self.lam_n = fem.Function(W, name=f"pressure_{tool.name}")
         self._offset = fem.Constant(parent, np.zeros(3))
@@ -193,7 +196,17 @@ class ContactTerm:
         return self.comm.allreduce(local, op=MPI.MAX)
 
     def penetration(self) -> float:
-        """Largest penetration of a surface node into the tool [mm] (0 if none)."""
+        """Largest penetration of a surface node into the tool [mm] (0 if none).
+
+        On an eroding body in an explicit run, the nodes of the surface erosion has left
+        (:attr:`exposed`), not the group's nodes on eroded cells.
+        """
+        if self.exposed is not None:
+            nc = self._nodal
+            on = nc.area > 0.0
+            x = nc.coords[on] + self.body.u.x.array.reshape(-1, 3)[nc.nodes[on]]
+            gap = nc.shape.gap_normal(x - self.tool_offset())[0]
+            return max(self._reduce_max(-gap), 0.0)
         self.track()
         self._gap.interpolate(self._gap_expr, cells0=self._cells)
         return max(self._reduce_max(-self._gap.x.array[self._owned]), 0.0)
@@ -272,18 +285,34 @@ class ContactTerm:
 
         Its friction history starts from this term's (:meth:`pull_nodal`). It holds a
         sticking node with the penalty whatever ``stick`` says (:class:`NodalContact`).
+        On a body whose elements erode (an analytic tool), its nodes are all the body's
+        face nodes, with the areas of :attr:`exposed` (collective).
         """
         V = self.body.V
-        nodes = fem.locate_dofs_topological(V, 2, self.body.domain.facets(self.spec.region))
+        facets = self.body.domain.facets(self.spec.region)
+        # an eroding body: the tool meets what erosion uncovers (exposed.py); a tool of a
+        # surface mesh tracks the group's nodes only
+        if self.body.erodes and self._track is None:
+            self.exposed = ExposedSurface(self.body, facets, self._rule)
+            msh = self.body.mesh  # any face may be uncovered: the nodes of all of them
+            msh.topology.create_entities(2)
+            imap = msh.topology.index_map(2)
+            facets = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+        nodes = fem.locate_dofs_topological(V, 2, facets)
         nodes = nodes[nodes < V.dofmap.index_map.size_local].astype(np.int64)
-        w = ufl.TestFunction(V)
-        area = fem.Function(V)
-        assembled(self.body.domain.form(ufl.dot(ufl.as_vector([1.0, 1.0, 1.0]), w) * self._ds),
-                  area)
-        # the nodes the rule integrates at (a tracked tool on a quadratic body: corners)
-        nodes = nodes[area.x.array[3 * nodes] > 0.0]
+        if self.exposed is not None:
+            area = self.exposed.areas(nodes)
+        else:
+            w = ufl.TestFunction(V)
+            f = fem.Function(V)
+            assembled(self.body.domain.form(ufl.dot(ufl.as_vector([1.0, 1.0, 1.0]), w)
+                                            * self._ds), f)
+            area = f.x.array[3 * nodes]
+            # the nodes the rule integrates at (a tracked tool on a quadratic body: corners)
+            nodes, area = nodes[area > 0.0], area[area > 0.0]
         nc = NodalContact(self.tool.shape, nodes, V.tabulate_dof_coordinates()[nodes],
-                          area.x.array[3 * nodes], self.penalty, self.friction)
+                          area, self.penalty, self.friction)
+        self._nodal = nc
         if self.lam_t is not None:  # blocks of the shear function at the nodes
             Wv = self.lam_t.function_space
             blocks = np.full(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts, -1,

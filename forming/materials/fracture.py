@@ -97,6 +97,11 @@ class FracturingSolid:
         return True
 
     @property
+    def erodes(self) -> bool:
+        """Whether points can erode (spent bands with ``erosion``, or a deletion strain)."""
+        return self.erosion or self.deletion_strain is not None
+
+    @property
     def fracture_stress(self) -> float:
         """Uniaxial stress at the onset of damage [MPa]."""
         return self.elasticity.E * self.fracture_strain

@@ -331,11 +331,13 @@ class ExplicitSolver:
                 # collective, so that every rank stops at the same increment
                 finite = all(np.all(np.isfinite(st.v)) for st in self.states)
                 local = np.array([2.0 * (not finite) + (signals.requested() is not None),
-                                  self._local_omega2()])
-                both = np.empty(2)
+                                  self._local_omega2(), any(t.stale() for t in self._tools)])
+                both = np.empty(3)
                 self.comm.Allreduce(local, both, op=MPI.MAX)
-                code, omega2 = both
+                code, omega2, eroded = both
                 self._follow_stiffening(omega2)
+                for tool in self._tools if eroded else ():  # erosion uncovered new faces
+                    tool.expose()
                 if code:
                     ok = False
                     reason = ("velocities not finite (unstable time step)" if code >= 2
@@ -441,16 +443,14 @@ class ExplicitSolver:
 
     def metrics(self) -> dict[str, float | bool]:
         """Figures every explicit run reports (``summary.json`` metrics)."""
-        led = self.ledger
-        return {
-            "kinetic_to_internal_max": led.ke_ie_max,
-            "quasi_static": led.ke_ie_max <= self.options.quasi_static_limit,
-            "hourglass_energy_fraction": led.hg_ie_max,
-            "mass_added_fraction": self.mass_added_fraction,
-            "energy_balance_error_rel": led.balance_error(),
-        } | ({"self_contact_penetration_max_mm": max(sc.deepest for sc in
-                                                     self.model.self_contacts)}
-             if self.model.self_contacts else {})
+        led, selves = self.ledger, self.model.self_contacts
+        return {"kinetic_to_internal_max": led.ke_ie_max,
+                "quasi_static": led.ke_ie_max <= self.options.quasi_static_limit,
+                "hourglass_energy_fraction": led.hg_ie_max,
+                "mass_added_fraction": self.mass_added_fraction,
+                "energy_balance_error_rel": led.balance_error(),
+                } | ({"self_contact_penetration_max_mm": max(sc.deepest for sc in selves)}
+                     if selves else {})
 
     def timing(self) -> dict[str, float]:
         """Figures for ``summary.json`` timing.

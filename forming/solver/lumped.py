@@ -198,15 +198,49 @@ class ToolTerm:
         self.contact = contact
         self.nodal = contact.nodal()
         self.dofs = self.nodal.dofs
-        nodal = self.nodal
-        areal = state.m_phys.reshape(-1, 3)[nodal.nodes, 0] / nodal.area
-        self.damping = (critical_damping(damping, nodal.penalty, areal) if damping > 0
-                        else None)  # [MPa s/mm] per node
+        self._zeta = damping
+        self.damping = self._damping()  # [MPa s/mm] per node
         self._offset = contact.tool_offset()  # at the last update
 
+    def _damping(self) -> np.ndarray | None:
+        """Each node's normal damping for its area (0 where it has none); None: undamped."""
+        if self._zeta <= 0:
+            return None
+        nodal = self.nodal
+        mass = self.state.m_phys.reshape(-1, 3)[nodal.nodes, 0]
+        touching = nodal.area > 0.0
+        areal = np.divide(mass, nodal.area, out=np.zeros_like(mass), where=touching)
+        return np.where(touching, critical_damping(self._zeta, nodal.penalty, areal), 0.0)
+
+    def stale(self) -> bool:
+        """True when erosion on this rank changed the surface the tool meets (local)."""
+        return self.contact.exposed is not None and self.contact.exposed.stale()
+
+    def expose(self) -> None:
+        """Take the surface erosion has uncovered (collective; nothing without erosion).
+
+        A node that joins the surface starts without friction history: its slip is
+        measured from where it is.
+        """
+        exposed = self.contact.exposed
+        if exposed is None:
+            return
+        nodal = self.nodal
+        area = exposed.areas(nodal.nodes)
+        joined = (nodal.area <= 0.0) & (area > 0.0)
+        nodal.area[:] = area
+        if nodal.friction > 0.0 and joined.any():
+            nodal.lam_t[joined] = 0.0
+            nodal.u_prev[joined] = self.state.body.u.x.array.reshape(-1, 3)[nodal.nodes[joined]]
+        self.damping = self._damping()
+
     def hold(self) -> None:
-        """Take the tool's position now as its last one (an interval starts, or a restart)."""
+        """An interval starts (or a restart): take the tool's position now as its last one.
+
+        The surface the tool meets becomes what erosion has left (collective).
+        """
         self._offset = self.contact.tool_offset()
+        self.expose()
 
     def update(self, dt: float | None = None) -> None:
         """Evaluate the contact and add its residual to the body's (owned entries).
