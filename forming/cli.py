@@ -10,6 +10,7 @@ forming drape CASE [--tool NAME] [--out DIR] [--set KEY=VALUE ...] [--spacing D]
 forming study CASE --vary KEY=V1,V2,... [--vary ...] [--metric NAME ...] [--set KEY=VALUE ...]
                    [--reference finest|extrapolated|VALUE] [--jobs N] [--ranks R] [--drape]
                    --out DIR
+forming warmup [--part materials|solvers]   compile the numba kernels once (cold cache)
 forming --version
 """
 
@@ -34,6 +35,7 @@ commands:
   compare    run a case with both solvers and compare them
   drape      kinematic drape (pin-jointed net) onto a tool of a case: shear-angle map
   study      run a case over combinations of parameters: table, convergence, cost
+  warmup     compile the numba kernels once, before parallel runs on a cold cache
 
 exit codes: 0 completed, 1 failed solve, 2 bad input, 3 file or folder error,
 4 internal error, 130 interrupted (SIGINT), 143 stopped (SIGTERM).
@@ -337,7 +339,19 @@ def main(argv: list[str] | None = None) -> None:
     opt.add_argument("--margin", type=float, default=0.0,
                      help="added outside the mapped trim line [mm] (0: net shape)")
     opt.add_argument("--quiet", action="store_true", help="warnings and errors only")
+    warm = sub.add_parser("warmup", help="compile the numba kernels into NUMBA_CACHE_DIR once "
+                                         "(before parallel runs or tests on a cold cache)")
+    warm.add_argument("--part", choices=("materials", "solvers"), default=None,
+                      help="one part only (two processes can share the work); default both")
     args, extra = parser.parse_known_args(argv)
+    if args.command == "warmup":
+        if extra:
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        from forming import log as logs
+        from forming import warmup
+
+        logs.setup()
+        raise SystemExit(warmup.main(args.part))
     if args.command == "study":
         if extra:
             parser.error(f"unrecognized arguments: {' '.join(extra)}")

@@ -118,11 +118,27 @@ export VIRTUAL_ENV="$venv"
 export PATH="$venv/bin:$PATH"   # so mpirun (mpich wheel) and `forming` resolve to the venv
 
 cd "$repo"
+
+# On a cold numba cache, compile the kernels once, the two parts of `forming warmup` side
+# by side, before the processes that need them (test workers, MPI ranks) would each
+# compile them at the same time.
+warm_kernels() {
+    [[ -n "$(find "$NUMBA_CACHE_DIR" -name '*.nbi' -print -quit 2>/dev/null)" ]] && return 0
+    echo "dev.sh: cold numba cache: compiling the kernels (forming warmup, two parts)" >&2
+    local a b rc=0
+    "$venv/bin/forming" warmup --part materials & a=$!
+    "$venv/bin/forming" warmup --part solvers & b=$!
+    wait "$a" || rc=$?
+    wait "$b" || rc=$?
+    [[ $rc -eq 0 ]] || die "forming warmup failed (exit $rc)"
+}
+
 case "$cmd" in
     main)
         # the product's main job: the demonstrator part on a coarse mesh, 2 ranks
         # (a few minutes); the core's compression test is `dev.sh core`
         out=results/demonstrator_main
+        warm_kernels
         "$venv/bin/mpirun" -n 2 "$venv/bin/forming" run demonstrator --out "$out" \
             --set element_size=60 "$@" || exit $?
         for png in shear_angle_map conformity_map section_y0; do
@@ -135,6 +151,7 @@ case "$cmd" in
     test)
         rc=0
         "$venv/bin/ruff" check --quiet . || rc=$?
+        warm_kernels
         # Two workers (CI has two cores; FORMING_TEST_WORKERS=0 runs them in this process),
         # each test given to whichever worker is free, so the longest ones do not queue.
         "$venv/bin/python" -m pytest -n "${FORMING_TEST_WORKERS:-2}" --dist worksteal "$@" \
