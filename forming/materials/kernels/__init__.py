@@ -32,10 +32,9 @@ Performance (the tangent takes 13 stress updates per point):
       once, and 6-vectors travel as tuples.
     * The inner functions are compiled without the numba runtime (``_inner``), so
       the arrays they pass around are not reference-counted.
-    * The eigen-decomposition is in closed form (:func:`.linalg.eig_sym3`: the
-      trigonometric eigenvalue farthest from the others, its eigenvector by cross
-      products, one Jacobi rotation for the other two), about a third of the cost
-      of the cyclic Jacobi rotations it replaced.
+    * The 13 eigen-decompositions of a point run as one batch: the Jacobi angles
+      of all matrices (divisions and square roots) are computed before the
+      rotations, so their latencies overlap.
     * The geometric bracketing of the return mapping only needs the sign of the
       yield value at most of its trial points; a rigorous lower bound proves it
       positive where it is far from zero, which skips the linear solve there

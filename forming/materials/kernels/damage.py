@@ -137,7 +137,7 @@ def _shear(ta, tb, ea, eb, wa, wb, mu):
 def _damage_points(cmats, hist_n, kappa_n, cel, measure, props, ginv, per_cell, s_out,
                    d_out, hist_out, kappa_out, want_tangent, work, twork):
     """Body of :func:`damage_points`, with its scratch arrays."""
-    cs, ms, qs, rot, _cr, c_eig, _lu, _s, _ok = work
+    cs, ms, qs, active, turn, rcs, rot, _cr, c_eig, _lu, _s, _ok = work
     geo, mt, tmp, _sys = twork
     eps_f, d_max, rate = props[DAMAGE_EPS_F], props[DAMAGE_DMAX], props[DAMAGE_RATE]
     erode = props[DAMAGE_ERODE] > 0.0
@@ -146,7 +146,7 @@ def _damage_points(cmats, hist_n, kappa_n, cel, measure, props, ginv, per_cell, 
     young = mu * (3.0 * lam + 2.0 * mu) / (lam + mu)
     nbad = 0
     for ip in range(cmats.shape[0]):
-        k, c = _batch_eigen(cmats, ip, cs, ms, qs)
+        k, c = _batch_eigen(cmats, ip, cs, ms, qs, active, turn, rcs)
         if hist_n[ip, 4] > 0.0:  # eroded: carries nothing, whatever its shape
             for i in range(6):
                 s_out[ip, i] = 0.0

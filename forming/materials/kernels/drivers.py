@@ -38,12 +38,14 @@ def _new_work():
     """Scratch arrays of the point loops.
 
     Returns:
-        (C of each update, diagonalised C, eigenvectors, Mandel rotation, ``cel @ rot``,
-        eigenframe stiffness, augmented system of the return mapping, stress of each
-        update, their success).
+        (C of each update, diagonalised C, eigenvectors, Jacobi scratch (two flags,
+        cosine and sine), Mandel rotation, ``cel @ rot``, eigenframe stiffness,
+        augmented system of the return mapping, stress of each update, their
+        success).
     """
     return (np.empty((_BATCH, 3, 3)), np.empty((_BATCH, 3, 3)), np.empty((_BATCH, 3, 3)),
-            np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)),
+            np.empty(_BATCH, dtype=np.bool_), np.empty(_BATCH, dtype=np.bool_),
+            np.empty((_BATCH, 2)), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)),
             np.empty((6, 10)), np.empty((_NUPD, 6)), np.empty(_NUPD, dtype=np.bool_))
 
 
@@ -64,13 +66,13 @@ def _new_tangent_work():
 @_inner
 def _elastic_points(cmats, cel, measure, s_out, d_out, want_tangent, h_rel, work):
     """Body of :func:`elastic_points`, with its scratch arrays ``work``."""
-    cs, ms, qs, rot, cr, c_eig, _lu, s_upd, _ok = work
+    cs, ms, qs, active, turn, rcs, rot, cr, c_eig, _lu, s_upd, _ok = work
     nupd = _NUPD if want_tangent else 1
     nbad = 0
     worst = 0
     for ip in range(cmats.shape[0]):
         h = _point_tensors(cmats, ip, h_rel, nupd, cs)
-        eig_sym3(cs, nupd, ms, qs)
+        eig_sym3(cs, nupd, ms, qs, active, turn, rcs)
         for u in range(nupd):
             c = (ms[u, 0, 0], ms[u, 1, 1], ms[u, 2, 2])
             st, s = _elastic_update(c, qs[u], cel, measure, rot, cr, c_eig)
@@ -111,11 +113,11 @@ def _load_batch(cmats, start, cs):
 
 
 @_inner
-def _batch_eigen(cmats, ip, cs, ms, qs):
+def _batch_eigen(cmats, ip, cs, ms, qs, active, turn, rcs):
     """Eigenvalues of C at point ``ip``; diagonalises its batch when ``ip`` starts one.
 
-    The points of a batch are diagonalised together (:func:`.linalg.eig_sym3`), in one
-    loop whose iterations are independent.
+    The points of a batch are diagonalised together (:func:`.linalg.eig_sym3`), so the
+    latencies of their Jacobi rotations overlap.
 
     Returns:
         (the point's index in the batch, its eigenvalues as a 3-tuple); the
@@ -123,18 +125,18 @@ def _batch_eigen(cmats, ip, cs, ms, qs):
     """
     k = ip % _BATCH
     if k == 0:
-        eig_sym3(cs, _load_batch(cmats, ip, cs), ms, qs)
+        eig_sym3(cs, _load_batch(cmats, ip, cs), ms, qs, active, turn, rcs)
     return k, (ms[k, 0, 0], ms[k, 1, 1], ms[k, 2, 2])
 
 
 @_inner
 def _elastic_points_closed(cmats, cel, measure, s_out, d_out, want_tangent, work, twork):
     """Body of :func:`elastic_points` with the closed-form tangent (or none)."""
-    cs, ms, qs, rot, cr, c_eig, _lu, _s, _ok = work
+    cs, ms, qs, active, turn, rcs, rot, cr, c_eig, _lu, _s, _ok = work
     geo, mt, tmp, _sys = twork
     nbad = 0
     for ip in range(cmats.shape[0]):
-        k, c = _batch_eigen(cmats, ip, cs, ms, qs)
+        k, c = _batch_eigen(cmats, ip, cs, ms, qs, active, turn, rcs)
         ok, s_fac, t = _elastic_state(c, qs[k], cel, measure, rot, cr, c_eig, 6)
         if not ok:
             nbad += 1
@@ -176,14 +178,14 @@ def elastic_points(cmats, cel, measure, s_out, d_out, tangent, h_rel):
 def _foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
                  s_out, d_out, ep_out, evp_out, want_tangent, h_rel, work):
     """Body of :func:`foam_points`, with its scratch arrays ``work``."""
-    cs, ms, qs, rot, cr, c_eig, lu, s_upd, ok_upd = work
+    cs, ms, qs, active, turn, rcs, rot, cr, c_eig, lu, s_upd, ok_upd = work
     pc_slope = _hermite_slope_bound(xs, ys, ds)
     nupd = _NUPD if want_tangent else 1
     nbad = 0
     worst = 0
     for ip in range(cmats.shape[0]):
         h = _point_tensors(cmats, ip, h_rel, nupd, cs)
-        eig_sym3(cs, nupd, ms, qs)
+        eig_sym3(cs, nupd, ms, qs, active, turn, rcs)
         epn = ep_n[ip]
         evpn = evp_n[ip]
         pc_n, _h = hermite_eval(evpn, xs, ys, ds)
@@ -213,13 +215,13 @@ def _foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
 def _foam_points_closed(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
                         s_out, d_out, ep_out, evp_out, want_tangent, work, twork):
     """Body of :func:`foam_points` with the closed-form tangent (or none)."""
-    cs, ms, qs, rot, cr, c_eig, lu, _s, _ok = work
+    cs, ms, qs, active, turn, rcs, rot, cr, c_eig, lu, _s, _ok = work
     geo, mt, tmp, sysm = twork
     pc_slope = _hermite_slope_bound(xs, ys, ds)
     nbad = 0
     worst = 0
     for ip in range(cmats.shape[0]):
-        k, c = _batch_eigen(cmats, ip, cs, ms, qs)
+        k, c = _batch_eigen(cmats, ip, cs, ms, qs, active, turn, rcs)
         evpn = evp_n[ip]
         pc_n, _h = hermite_eval(evpn, xs, ys, ds)
         st, s_fac, k_fac, t, sig, mu, ep, evp = _foam_return(
@@ -284,13 +286,13 @@ def foam_points(cmats, ep_n, evp_n, cel, measure, props, xs, ys, ds,
 @_inner
 def _foam_frozen_points(cmats, ep_n, cel, measure, s_out, d_out, want_tangent, h_rel, work):
     """Body of :func:`foam_frozen_points`, with its scratch arrays ``work``."""
-    cs, ms, qs, rot, cr, c_eig, _lu, s_upd, ok_upd = work
+    cs, ms, qs, active, turn, rcs, rot, cr, c_eig, _lu, s_upd, ok_upd = work
     nupd = _NUPD if want_tangent else 1
     nbad = 0
     worst = 0
     for ip in range(cmats.shape[0]):
         h = _point_tensors(cmats, ip, h_rel, nupd, cs)
-        eig_sym3(cs, nupd, ms, qs)
+        eig_sym3(cs, nupd, ms, qs, active, turn, rcs)
         epn = ep_n[ip]
         for u in range(nupd):
             c = (ms[u, 0, 0], ms[u, 1, 1], ms[u, 2, 2])
@@ -313,12 +315,12 @@ def _foam_frozen_points(cmats, ep_n, cel, measure, s_out, d_out, want_tangent, h
 def _foam_frozen_points_closed(cmats, ep_n, cel, measure, s_out, d_out, want_tangent, work,
                                twork):
     """Body of :func:`foam_frozen_points` with the closed-form tangent (or none)."""
-    cs, ms, qs, rot, cr, c_eig, _lu, _s, _ok = work
+    cs, ms, qs, active, turn, rcs, rot, cr, c_eig, _lu, _s, _ok = work
     geo, mt, tmp, _sys = twork
     nbad = 0
     worst = 0
     for ip in range(cmats.shape[0]):
-        k, c = _batch_eigen(cmats, ip, cs, ms, qs)
+        k, c = _batch_eigen(cmats, ip, cs, ms, qs, active, turn, rcs)
         st, s, s_fac, t = _foam_frozen_update(c, qs[k], ep_n[ip], cel, measure, rot, cr, c_eig)
         if st != STATUS_OK:
             nbad += 1
