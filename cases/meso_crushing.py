@@ -10,8 +10,8 @@ meso run can afford (a stated scaling, as the issue allows): the core ``height``
 the paper's (10 mm, 4 layers of elements), the punch covers the middle ``punch`` share
 of the patch's width and depth with fillets of ``fillet`` mm (the paper: two thirds,
 and a fillet of the core's thickness), and the stroke is half the core, as in the paper.
-The walls' bottom edges are held (the plate); the punch touches their top edges with
-the tool-core friction 0.36.
+The walls' bottom edges are held (the plate); the punch touches their top edges, and
+their faces once they fold under it (``top_sides``), with the tool-core friction 0.36.
 
 The explicit solver is the default (with mass scaling at the nominal strain rate of
 the explicit meso compression runs, docs/validation.md): an implicit run of fracturing
@@ -118,7 +118,7 @@ def build(p: Params) -> Job:
         bodies=(Body("walls", walls, degree=2),),
         displacements=(Displacement("walls", "bottom", x=0.0, y=0.0, z=0.0),),
         tools=(Tool("punch", shape, z=Linear(-travel)),),
-        contacts=(Contact("walls", "top", "punch", friction=p.friction),),
+        contacts=(Contact("walls", "top_sides", "punch", friction=p.friction),),
         self_contacts=((SelfContact("walls", "sides", depth=0.5 * p.wall_thickness),)
                        if p.self_contact else ()),
     )

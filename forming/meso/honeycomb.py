@@ -342,10 +342,11 @@ def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> Me
     the walls' cut faces on the patch's rectangle, ``cut_xmin``, ``cut_xmax`` (ribbon
     walls cut square at their middles) and ``cut_ymin``, ``cut_ymax`` (inclined walls cut
     at their middles; :func:`patch_box`), each with its part ``_inner`` at least a cell
-    pitch from the rectangle's corners. With an infill also the volume ``infill``, its
-    faces ``infill_bottom`` and ``infill_top``, and ``wall_infill``, the faces the walls
-    share with the infill; with flanges the volume ``flange``, its top faces
-    ``flange_top`` and ``wall_flange``.
+    pitch from the rectangle's corners; ``top_sides``, the union of ``top`` and
+    ``sides`` (what a tool pressed onto the walls meets once they fold). With an infill
+    also the volume ``infill``, its faces ``infill_bottom`` and ``infill_top``, and
+    ``wall_infill``, the faces the walls share with the infill; with flanges the volume
+    ``flange``, its top faces ``flange_top`` and ``wall_flange``.
     """
     def build() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         xy, quads, region = section_mesh(patch)
@@ -381,6 +382,9 @@ def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> Me
     names = {"walls": (3, 1), "bottom": (2, 1), "top": (2, 2), "wall_faces": (2, 3)}
     cuts, unions = group_names()
     names |= cuts
+    # what a tool pressed onto the walls meets: their top edges, and their faces once
+    # they fold under it
+    unions["top_sides"] = (names["top"][1], *unions["sides"])
     if patch.infill:
         names |= {"infill": (3, 2), "infill_bottom": (2, 4), "infill_top": (2, 5),
                   "wall_infill": (2, 6)}
