@@ -89,13 +89,24 @@ def solvers(folder: Path) -> None:
 
 
 def main(part: str | None = None) -> int:
-    """Compile the kernels of ``part`` (None: both parts, one after the other)."""
-    for name in PARTS if part is None else (part,):
-        t0 = time.perf_counter()
-        if name == "materials":
-            materials()
-        else:
-            with tempfile.TemporaryDirectory() as tmp:
-                solvers(Path(tmp))
-        log.info("warmup: %s kernels ready in %.1f s", name, time.perf_counter() - t0)
+    """Compile the kernels of ``part`` (None: both parts, one after the other).
+
+    The small models' own progress is not logged, only what each part took.
+    """
+    package = logging.getLogger("forming")
+    levels = package.level, log.level
+    package.setLevel(logging.WARNING)
+    log.setLevel(logging.INFO)
+    try:
+        for name in PARTS if part is None else (part,):
+            t0 = time.perf_counter()
+            if name == "materials":
+                materials()
+            else:
+                with tempfile.TemporaryDirectory() as tmp:
+                    solvers(Path(tmp))
+            log.info("warmup: %s kernels ready in %.1f s", name, time.perf_counter() - t0)
+    finally:
+        package.setLevel(levels[0])
+        log.setLevel(levels[1])
     return 0
