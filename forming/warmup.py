@@ -91,11 +91,11 @@ def solvers(folder: Path) -> None:
 def main(part: str | None = None) -> int:
     """Compile the kernels of ``part`` (None: both parts, one after the other).
 
-    The small models' own progress is not logged, only what each part took.
+    The small models' progress and warnings are not logged, only what each part took.
     """
     package = logging.getLogger("forming")
     levels = package.level, log.level
-    package.setLevel(logging.WARNING)
+    package.setLevel(logging.ERROR)  # (the small models are not quasi-static: no warnings)
     log.setLevel(logging.INFO)
     try:
         for name in PARTS if part is None else (part,):
