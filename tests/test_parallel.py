@@ -150,3 +150,50 @@ def test_explicit_run_with_a_rank_that_owns_no_cell_of_a_crushable_body(tmp_path
         scale = np.abs(a[column]).max()
         assert scale > 0.0
         assert np.abs(b[column] - a[column]).max() <= 1e-9 * scale, column
+
+
+_ONE_RANK_FAILS = """
+import sys
+from pathlib import Path
+
+import forming.compat  # noqa: F401
+from forming.job import Job
+from forming.materials import ElasticSolid, IsotropicElasticity
+from forming.mesh import box
+from forming.run import simulate
+from forming.scene import Body, Displacement, Linear, Scene
+from forming.solver.options import ExplicitOptions
+from forming.solver.stepping import StepControl
+
+scene = Scene("bar", box((8.0, 1.0, 1.0), (8, 1, 2)),
+              (Body("bar", ElasticSolid(IsotropicElasticity(1.0, 0.3), density=1e-9),
+                    degree=2),),
+              displacements=(Displacement("bar", "xmax", x=0.0, y=0.0, z=0.0),
+                             Displacement("bar", "xmin", x=Linear(3.0))))
+job = Job(scene, steps=StepControl(initial=0.1, max=0.1, min=0.1), solver="explicit",
+          explicit=ExplicitOptions(loading_time=1e-4))
+simulate(job, Path(sys.argv[1]), "bar", {})
+"""
+
+
+@pytest.mark.mpi
+def test_explicit_kernel_failure_on_one_rank_stops_every_rank(tmp_path):
+    """A bar whose end is pushed 3 of its 8 mm in 0.1 ms (explicit, quadratic elements,
+    forces through the forms) inverts an element on one rank only: on 2 ranks the run
+    stops as the serial one does, failed at the same load parameter with the same reason,
+    instead of hanging (the failing rank left the increment while the other waited in the
+    next scatter; meso_crushing hung so). A failure means a rank's kernel failure no
+    longer reaches the other ranks before their next collective operation.
+    """
+    script = tmp_path / "one_rank_fails.py"
+    script.write_text(_ONE_RANK_FAILS)
+    serial = run_python([str(script), str(tmp_path / "serial")])
+    assert serial.returncode == 0, serial.stderr[-3000:]
+    proc = run_mpi([str(script), str(tmp_path / "mpi")], timeout=120)  # (a hang: killed)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    a, b = (json.loads((tmp_path / k / "summary.json").read_text()) for k in ("serial", "mpi"))
+    assert a["status"] == b["status"] == "failed"
+    assert "inverted elements" in b["reason"]
+    assert b["reason"] == a["reason"]
+    assert b["load_parameter_reached"] == pytest.approx(a["load_parameter_reached"])
+

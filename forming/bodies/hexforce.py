@@ -210,32 +210,41 @@ class HexInternalForce:
                 written).
 
         Raises:
-            KernelFailure: An inverted element or a failed return mapping.
+            KernelFailure: An inverted element or a failed return mapping on this rank,
+                raised after the vector's scatters (which every rank takes part in), with
+                this rank's forces left at zero.
         """
         t0 = time.perf_counter()
         body = self.body
         u = body.u.x.array
+        out.array[:] = 0.0
+        failure = self._local_forces(u, out.array)
+        self.seconds += time.perf_counter() - t0
+        out.scatter_reverse(la.InsertMode.add)
+        out.scatter_forward()
+        if failure:
+            raise KernelFailure(f"{failure} in body {body.name!r}")
+
+    def _local_forces(self, u: np.ndarray, out: np.ndarray) -> str:
+        """This rank's element forces into ``out``; what failed ("": nothing)."""
+        body = self.body
         right_cauchy_green(u, self.nodes, self.grads, self.cm, self.detf)
         bad = int(np.count_nonzero(self.detf <= 0.0))
         if bad:
-            raise KernelFailure(f"{bad} integration points: inverted elements (det F <= 0) "
-                                f"in body {body.name!r}")
+            return f"{bad} integration points: inverted elements (det F <= 0)"
         nbad, worst = point_stress(body.material, self.cm, self.ep, self.evp, self.stress,
                                    self.ep_trial, self.evp_trial, body.load_increment,
                                    body.travel)
         if nbad:
             what = "inverted elements" if worst == 1 else "return mapping failed"
-            raise KernelFailure(f"{nbad} integration points: {what} in body {body.name!r}")
+            return f"{nbad} integration points: {what}"
         if self.reduced and self._curve is not None:
             tangent_ratio(self.ep, self.evp, self.ep_trial, self.evp_trial, *self._curve,
                           self.modulus, self.plastic_floor, self.phi)
-        out.array[:] = 0.0
         self.omega2 = nodal_forces(u, self.nodes, self.grads, self.weights, self.stress,
                                    self.gamma, self.k_hg, self.phi, self.hg,
-                                   self.hg_energy[1], self.wave2, out.array)
-        self.seconds += time.perf_counter() - t0
-        out.scatter_reverse(la.InsertMode.add)
-        out.scatter_forward()
+                                   self.hg_energy[1], self.wave2, out)
+        return ""
 
     @property
     def hourglass_energy(self) -> float:

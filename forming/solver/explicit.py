@@ -40,7 +40,7 @@ from forming.errors import InputError, KernelFailure
 from forming.model import Model
 from forming.solver import leapfrog, lumped
 from forming.solver.base import StepResult
-from forming.solver.ledger import EnergyLedger
+from forming.solver.ledger import EnergyLedger, run_warnings
 from forming.solver.lumped import BodyState, ExternalTerm, OutsideForms, ToolTerm, body_density
 from forming.solver.options import ExplicitOptions
 from forming.solver.stepping import StepControl
@@ -141,7 +141,10 @@ class ExplicitSolver:
                       np.zeros(st.n_owned), np.zeros(st.v.size), np.zeros(st.n_owned))
                      for st in self.states]
         self.dt = math.inf  # no time step yet: a self-contact's penalty is 0 at rest
+        self._failure = ""  # a point kernel's failure on this rank, until the ranks check
         self._assemble_forces()  # forces at rest (e.g. a preload) give a_0
+        if failure := self.comm.allreduce(self._failure, op=MPI.MAX):
+            raise KernelFailure(failure)
         self.dt = self._dt_ref = self._time_step()
         self._omega2_ref = self._omega2_now = self._omega2()
         self._s_bound = 0.0  # load parameter of the last Gershgorin bound
@@ -182,10 +185,14 @@ class ExplicitSolver:
         t0 = time.perf_counter()
         for st in self.states:
             loop = self._loops[st.name]
-            if loop is not None:
-                loop.forces(st.f_int.x)
-            else:
-                st.body.update_material(want_tangent=False)
+            try:
+                if loop is not None:
+                    loop.forces(st.f_int.x)
+                else:
+                    st.body.update_material(want_tangent=False)
+            except KernelFailure as exc:  # this rank's alone: the next check stops all
+                self._failure = self._failure or f"point kernel failed: {exc}"
+            if loop is None:  # (collective: after a failure too, with the last stresses)
                 assembled(self._internal[st.name], st.f_int)
             st.f_all.x.array[:] = st.f_int.x.array
         for outside in self._outside:
@@ -311,7 +318,7 @@ class ExplicitSolver:
         t0 = time.perf_counter()
         tau_end = self.options.time_of(self._s_end)
         n0 = self.time_steps
-        reason = ""
+        reason = self._failure = ""
         ok = True
         try:
             s_start = self.options.load(self.tau)
@@ -330,8 +337,9 @@ class ExplicitSolver:
                     continue
                 # collective, so that every rank stops at the same increment
                 finite = all(np.all(np.isfinite(st.v)) for st in self.states)
-                local = np.array([2.0 * (not finite) + (signals.requested() is not None),
-                                  self._local_omega2(), any(t.stale() for t in self._tools)])
+                local = np.array([4.0 * bool(self._failure) + 2.0 * (not finite)
+                                  + (signals.requested() is not None), self._local_omega2(),
+                                  any(t.stale() for t in self._tools)])
                 both = np.empty(3)
                 self.comm.Allreduce(local, both, op=MPI.MAX)
                 code, omega2, eroded = both
@@ -340,9 +348,13 @@ class ExplicitSolver:
                     tool.expose()
                 if code:
                     ok = False
-                    reason = ("velocities not finite (unstable time step)" if code >= 2
+                    reason = (self.comm.allreduce(self._failure, op=MPI.MAX) if code >= 4
+                              else "velocities not finite (unstable time step)" if code >= 2
                               else "interrupted")
                     break
+            failure = self.comm.allreduce(self._failure, op=MPI.MAX)  # since the last check
+            if ok and failure:
+                ok, reason = False, failure
             if ok and not all(np.all(np.isfinite(st.v)) for st in self.states):
                 ok, reason = False, "velocities not finite (unstable time step)"
         except KernelFailure as exc:
@@ -483,18 +495,5 @@ class ExplicitSolver:
 
     def warnings(self) -> list[str]:
         """A run that is not quasi-static, that added much mass or hourglassed."""
-        out = []
-        led, opts = self.ledger, self.options
-        if led.ke_ie_max > opts.quasi_static_limit:
-            out.append(f"explicit: kinetic energy reached {led.ke_ie_max:.1%} of the internal"
-                       f" energy (quasi-static limit {opts.quasi_static_limit:.0%}): "
-                       "inertia distorts the answer; lengthen explicit.loading_time")
-        if self.mass_added_fraction > MASS_ADDED_LIMIT:
-            out.append(f"explicit: mass scaling added {self.mass_added_fraction:.1%} of the "
-                       f"mass (above {MASS_ADDED_LIMIT:.0%}); raise explicit.loading_time or "
-                       "lower explicit.target_time_step")
-        if led.hg_ie_max > opts.hourglass_limit:
-            out.append(f"explicit: hourglass energy reached {led.hg_ie_max:.1%} of the "
-                       f"internal energy (limit {opts.hourglass_limit:.0%}): refine the mesh, "
-                       "raise explicit.hourglass or use explicit.integration=full")
-        return out
+        return run_warnings(self.ledger, self.options, self.mass_added_fraction,
+                            MASS_ADDED_LIMIT)

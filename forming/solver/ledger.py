@@ -129,3 +129,28 @@ class EnergyLedger:
         """Largest energy balance over the external work (0 without external work)."""
         ext = abs(self.energy["external"])
         return self.balance_max / ext if ext > 0 else 0.0
+
+
+def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float) -> list[str]:
+    """What an explicit run warns about: inertia, added mass, hourglass energy.
+
+    Args:
+        led: The run's energy ledger.
+        opts: Its explicit options (:class:`~forming.solver.options.ExplicitOptions`).
+        mass_added: The mass scaling added, as a fraction of the mass.
+        mass_limit: The added fraction above which a run is flagged.
+    """
+    out = []
+    if led.ke_ie_max > opts.quasi_static_limit:
+        out.append(f"explicit: kinetic energy reached {led.ke_ie_max:.1%} of the internal"
+                   f" energy (quasi-static limit {opts.quasi_static_limit:.0%}): "
+                   "inertia distorts the answer; lengthen explicit.loading_time")
+    if mass_added > mass_limit:
+        out.append(f"explicit: mass scaling added {mass_added:.1%} of the mass (above "
+                   f"{mass_limit:.0%}); raise explicit.loading_time or lower "
+                   "explicit.target_time_step")
+    if led.hg_ie_max > opts.hourglass_limit:
+        out.append(f"explicit: hourglass energy reached {led.hg_ie_max:.1%} of the "
+                   f"internal energy (limit {opts.hourglass_limit:.0%}): refine the mesh, "
+                   "raise explicit.hourglass or use explicit.integration=full")
+    return out
