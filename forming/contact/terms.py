@@ -98,6 +98,7 @@ class ContactTerm:
         self._ds = body.domain.ds(spec.region, **nodal_rule(degree))
         self._rule = nodal_rule(degree)
         self.exposed: ExposedSurface | None = None  # see nodal()
+        self._nodal: NodalContact | None = None  # the node-by-node form, once built
         W = fem.functionspace(msh, ("Lagrange", degree))
         self.lam_n = fem.Function(W, name=f"pressure_{tool.name}")
         self._offset = fem.Constant(parent, np.zeros(3))
