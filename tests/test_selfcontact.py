@@ -112,6 +112,41 @@ def test_a_node_found_deep_behind_a_face_starts_no_contact(tmp_path):
     assert abs(h["reaction_upper_top_z_N"][-1]) < 1e-3 * E * SIDE**2 * PUSH / (2 * HEIGHT)
 
 
+def test_a_pair_starts_unloaded_and_keeps_its_force_only_on_a_face_alike():
+    """The pair rules of the penalty, on one slave node and three fixed triangles (a
+    face, one tilted 10 degrees from it, one at 90 degrees: a fold). A pair found
+    penetrated starts with no force; the penetration it gains after that pushes, k per
+    mm; moving onto the tilted triangle keeps the force, onto the folded one starts
+    again from zero. A pair that starts with the force of a depth it did not build up
+    puts energy into the walls (``meso_crushing``: 61 N mm by 1.9 mm of stroke, and
+    wall nodes at 300 m/s, before this rule); a failure means that rule is gone.
+    """
+    from forming.contact.selfkernels import penalty_residual
+
+    c, s10 = np.cos(np.radians(10.0)), np.sin(np.radians(10.0))
+    x = np.array([[0.0, 0.0, 0.0],  # the slave
+                  [-1, -1, 0], [3, -1, 0], [-1, 3, 0],  # face, normal +z
+                  [-1, -1, 0], [-1 + 4 * c, -1, 4 * s10], [-1, 3, 0],  # tilted 10 deg
+                  [0, -1, -1], [0, 3, -1], [0, -1, 3]], float)  # folded: normal +x
+    tris = np.array([[1, 2, 3], [4, 5, 6], [7, 8, 9]], np.int64)
+    normals = [np.array([0.0, 0.0, 1.0]), np.array([-s10, 0.0, c]), np.array([1.0, 0, 0])]
+    mass = np.array([1.0] + [1e12] * 9)
+    state = np.array([[-1.0, 0.0, 0.0]])
+    k = 0.3  # scale m / dt^2 with m = 1 (the triangles' nodes do not move) and dt = 1
+
+    def force(t: int, d: float) -> float:
+        r = np.zeros((10, 3))
+        penalty_residual(x, np.array([0]), np.array([t]), np.array([d]),
+                         np.array([[1 / 3] * 3]), normals[t][None, :], tris, mass,
+                         np.zeros((10, 3)), np.ones(10), k, 0.0, 1.0, state, r)
+        return float(-r[0] @ normals[t])
+
+    assert force(0, -0.02) == 0.0  # found 0.02 deep: starts unloaded
+    assert force(0, -0.03) == pytest.approx(k * 0.01, rel=1e-12)
+    assert force(1, -0.03) == pytest.approx(k * 0.01, rel=1e-12)  # onto a face alike
+    assert force(2, -0.03) == 0.0  # across the fold: starts again
+
+
 @pytest.mark.parametrize("field,value", [("depth", -1.0), ("stiffness", 2.0),
                                          ("stiffness", 0.0)])
 def test_bad_self_contact_settings_name_the_field(field, value):
@@ -144,3 +179,41 @@ def test_two_ranks_give_the_serial_forces(tmp_path):
 
 if __name__ == "__main__":  # the 2-rank run of the test above
     simulate(_explicit_job(2), Path(sys.argv[1]), "blocks", {})
+
+
+def test_the_search_finds_what_a_brute_force_search_finds():
+    """The binned candidate search returns, node by node, exactly the triangles a test of
+    every node against every triangle returns, on a crumpled sheet of 1,800 triangles with
+    one face stretched across the whole sheet (a cracked wall) and one eroded. A failure
+    means self-contacts are missed (a fold passes through a wall) or the list is padded.
+    """
+    from forming.contact.selfkernels import _near, candidates
+
+    rng = np.random.default_rng(7)
+    n = 31
+    gx, gy = np.meshgrid(np.linspace(0, 10, n), np.linspace(0, 10, n), indexing="ij")
+    x = np.column_stack([gx.ravel(), gy.ravel(), 0.3 * np.sin(gx.ravel()) * np.cos(gy.ravel())])
+    x += rng.normal(scale=0.05, size=x.shape)
+    quads = [(i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1, i * n + j + 1)
+             for i in range(n - 1) for j in range(n - 1)]
+    tris = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))], np.int64)
+    x[0] = (-20.0, -20.0, 5.0)  # node 0 flung away: its triangle spans the sheet
+    tri_cell = np.arange(len(tris), dtype=np.int64) // 2
+    node_cells = [[] for _ in range(len(x))]
+    for t, tri in enumerate(tris):
+        for v in tri:
+            node_cells[v].append(tri_cell[t])
+    ptr = np.cumsum([0] + [len(c) for c in node_cells]).astype(np.int64)
+    cells = np.array([c for cs in node_cells for c in cs], np.int64)
+    tri_dead = np.zeros(len(tris), bool)
+    tri_dead[100] = True
+    slaves = np.arange(len(x), dtype=np.int64)
+    reach = 0.4
+    offsets, found = candidates(x, tris, tri_cell, ptr, cells, slaves, reach, tri_dead,
+                                np.zeros(len(x), bool))
+    for s in slaves:
+        mine = set(cells[ptr[s]:ptr[s + 1]])
+        expected = [t for t in range(len(tris)) if not tri_dead[t] and s not in tris[t]
+                    and tri_cell[t] not in mine and _near(x, tris, t, s, reach)]
+        assert list(found[offsets[s]:offsets[s + 1]]) == expected, s
+    assert offsets[-1] > 0

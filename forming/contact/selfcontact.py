@@ -241,10 +241,10 @@ class SurfaceSelfContact:
         pair_shares(self.own_rows, hit, dist, bary, self.tris, share)
         if self.comm.size > 1:
             self.comm.Allreduce(MPI.IN_PLACE, share, op=MPI.SUM)
-        pairs, deepest = penalty_residual(self.own_rows, hit, dist, bary, normal,
-                                                  self.tris, self.mass, vel, share,
-                                                  self.spec.stiffness, self.spec.damping, dt,
-                                                  self.pair_state, r)
+        pairs, deepest = penalty_residual(x, self.own_rows, hit, dist, bary, normal,
+                                          self.tris, self.mass, vel, share,
+                                          self.spec.stiffness, self.spec.damping, dt,
+                                          self.pair_state, r)
         if self.comm.size > 1:
             self.comm.Allreduce(MPI.IN_PLACE, r, op=MPI.SUM)
             pairs = self.comm.allreduce(pairs, op=MPI.SUM)
