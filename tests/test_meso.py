@@ -278,3 +278,36 @@ def test_meso_crushing_stays_under_the_punch(tmp_path):
     assert m["settlement_inside_mm"] == pytest.approx(travel, rel=0.05)
     assert m["settlement_outside_mm"] < 0.2 * m["settlement_inside_mm"]
     assert m["punch_force_max_N"] > 0
+
+
+def test_wall_columns_measure_a_uniform_squeeze():
+    """The meso hemisphere's compaction pairs each wall-top node with the bottom node
+    below it: on a 2 x 1 patch (quadratic walls, seeded imperfection) squeezed by
+    u_z = -0.1 z, every column's compaction, one minus its height over the initial one,
+    is 0.1 to round-off, and the columns cover the top face's nodes. A failure means
+    top and bottom nodes are paired across walls (the case's compaction is then noise).
+    """
+    from types import SimpleNamespace
+
+    from forming.meso.post import wall_columns
+
+    height = 3.0
+    md = honeycomb_mesh(HoneycombPatch(HoneycombCell(), (2, 1), height, 1.0, 2, 0.05))
+    V = fem.functionspace(md.mesh, ("Lagrange", 2, (3,)))
+    u = fem.Function(V)
+    u.interpolate(lambda x: np.vstack([0 * x[0], 0 * x[0], -0.1 * x[2]]))
+    xy, top, bottom = wall_columns(SimpleNamespace(V=V, u=u, mesh=md.mesh), height)
+    n_top = md.mesh.comm.allreduce(int(np.sum(np.isclose(
+        V.tabulate_dof_coordinates()[:V.dofmap.index_map.size_local, 2], height))))
+    assert len(xy) == n_top > 0
+    np.testing.assert_allclose(1.0 - (top - bottom) / height, 0.1, atol=1e-12)
+
+
+def test_meso_hemisphere_refuses_a_patch_inside_the_die():
+    """A patch too small to rest on the die (2 x 2 cells against a 21.6 mm opening) is
+    refused by name, before any run."""
+    from forming.case import load_case, prepare_case
+
+    module = load_case("meso_hemisphere")
+    with pytest.raises(InputError, match="--set cells"):
+        prepare_case("meso_hemisphere", ["cells=2,2"], module.build, module.Params)

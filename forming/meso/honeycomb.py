@@ -343,7 +343,8 @@ def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> Me
     walls cut square at their middles) and ``cut_ymin``, ``cut_ymax`` (inclined walls cut
     at their middles; :func:`patch_box`), each with its part ``_inner`` at least a cell
     pitch from the rectangle's corners; ``top_sides``, the union of ``top`` and
-    ``sides`` (what a tool pressed onto the walls meets once they fold). With an infill
+    ``sides`` (what a tool pressed onto the walls meets once they fold), and
+    ``bottom_sides`` likewise for a tool under them. With an infill
     also the volume ``infill``, its faces ``infill_bottom`` and ``infill_top``, and
     ``wall_infill``, the faces the walls share with the infill; with flanges the volume
     ``flange``, its top faces ``flange_top`` and ``wall_flange``.
@@ -385,6 +386,7 @@ def honeycomb_mesh(patch: HoneycombPatch, comm: MPI.Comm = MPI.COMM_WORLD) -> Me
     # what a tool pressed onto the walls meets: their top edges, and their faces once
     # they fold under it
     unions["top_sides"] = (names["top"][1], *unions["sides"])
+    unions["bottom_sides"] = (names["bottom"][1], *unions["sides"])
     if patch.infill:
         names |= {"infill": (3, 2), "infill_bottom": (2, 4), "infill_top": (2, 5),
                   "wall_infill": (2, 6)}

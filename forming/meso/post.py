@@ -66,3 +66,33 @@ def folded_walls_picture(model, out: Path, title: str, name: str = "folded_walls
         paths.append(render_3d(out / "damaged_walls.png", grid, "damage", [],
                                (0, 1, 0, 1, 0, 1), 1.0, title=f"{title}: damage"))
     return paths
+
+
+def wall_columns(body, height: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The walls' top and bottom nodes paired along the cell axis (collective).
+
+    The walls are prisms along z whose imperfection vanishes at both ends, so each node
+    of the top face (z = ``height``) has one of the bottom face (z = 0) at the same
+    reference (x, y). Gathered on every rank.
+
+    Returns:
+        (reference (x, y) (n, 2), current z of the top node (n,), current z of the
+        bottom node (n,)) per column.
+    """
+    V = body.V
+    n = V.dofmap.index_map.size_local
+    xr = V.tabulate_dof_coordinates()[:n]
+    z = xr[:, 2] + body.u.x.array.reshape(-1, 3)[:n, 2]
+    tol = 1e-6 * height
+
+    def gathered(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        local = np.column_stack([xr[mask, :2], z[mask]])
+        rows = np.concatenate(body.mesh.comm.allgather(local))
+        rows = rows[np.lexsort((np.round(rows[:, 1], 6), np.round(rows[:, 0], 6)))]
+        return rows[:, :2], rows[:, 2]
+
+    top_xy, top_z = gathered(np.abs(xr[:, 2] - height) < tol)
+    bottom_xy, bottom_z = gathered(np.abs(xr[:, 2]) < tol)
+    if top_xy.shape != bottom_xy.shape or not np.allclose(top_xy, bottom_xy, atol=1e-6):
+        raise ValueError("the walls' top and bottom nodes do not pair along z")
+    return top_xy, top_z, bottom_z
