@@ -182,9 +182,9 @@ def main() -> None:
               "the dummies' bonds at all nine nodes (b1a2e7d): 'Meso variants past the "
               "peak' has the three variants rerun, implicit and explicit.",
               "- Since this section: wall-to-wall contact, explicit meso runs, "
-              "`meso_crushing`, `forming calibrate` with the in-plane moduli (sections "
-              "below). Not yet: a larger patch for the RVE size in compression, "
-              "`meso_hemisphere` (issue 20 stays open)."]
+              "`meso_crushing`, `meso_hemisphere`, `forming calibrate` with the in-plane "
+              "moduli (sections below). Not yet: a larger patch for the RVE size in "
+              "compression (issue 20 stays open)."]
     update_section("meso", "\n".join(lines), VALIDATION_MD)
     cost = ["## Meso-scale cases", "",
             "Written by `python benchmarks/validate_meso.py` (docs/validation.md, meso "

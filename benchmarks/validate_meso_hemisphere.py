@@ -28,6 +28,7 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
 from _report import REPO, machine, run_case_process, update_section
 from validate_meso_explicit import commit
 
@@ -43,12 +44,12 @@ RUNS = {  # folder: (case, settings)
 
 
 def finished(folder: Path) -> dict | None:
-    """The summary of a finished run in ``folder`` (completed or failed), else None."""
+    """The summary of a finished run in ``folder`` (completed, failed or interrupted)."""
     try:
         summary = json.loads((folder / "summary.json").read_text())
     except (OSError, json.JSONDecodeError):
         return None
-    return summary if summary.get("status") in ("completed", "failed") else None
+    return summary if summary.get("status") in ("completed", "failed", "interrupted") else None
 
 
 def runs(report: bool) -> dict[str, dict]:
@@ -67,6 +68,15 @@ def runs(report: bool) -> dict[str, dict]:
     return out
 
 
+def at_stroke(name: str, stroke: float, column: str) -> float:
+    """A history column of run ``name`` at ``stroke`` [mm] (linear between rows)."""
+    h = np.atleast_1d(np.genfromtxt(REPO / "results" / name / "history.csv", delimiter=",",
+                                    names=True))
+    if column not in h.dtype.names:
+        return float("nan")
+    return float(np.interp(stroke, h["stroke_mm"], h[column]))
+
+
 def row(label: str, s: dict | None, keys: tuple[str, str, str]) -> str:
     """A table row: status, stroke, force, compaction under the punch, flange lift, time."""
     if not s:
@@ -74,7 +84,7 @@ def row(label: str, s: dict | None, keys: tuple[str, str, str]) -> str:
     m = s.get("metrics", {})
     force, compaction, lift = (m.get(k, float("nan")) for k in keys)
     stroke = m.get("stroke_reached_mm", s.get("load_parameter_reached", 0.0) * 3.75)
-    status = s["status"] if s["status"] == "completed" else f"failed: {s.get('reason', '')}"
+    status = s["status"] if s["status"] == "completed" else f"{s['status']}: {s.get('reason')}"
     return (f"| {label} | {status} | {stroke:.2f} | {force:.3g} | {compaction:.3g} | "
             f"{lift:.3g} | {s['timing']['wall_s']:.0f} | {commit(s)} |")
 
@@ -106,6 +116,23 @@ def main() -> None:
         row("macro, no holder", s["macro_hemisphere_scaled_free"], macro),
         row("macro, holder", s["macro_hemisphere_scaled_holder"], macro),
     ]
+    reached = [(s[n] or {}).get("metrics", {}).get("stroke_reached_mm", 0.0)
+               for n in ("meso_hemisphere_free", "meso_hemisphere_holder")]
+    common = min(reached)
+    if 0 < common < max(reached) - 1e-9:
+        lines += ["", f"At {common:.2f} mm of stroke, which both meso runs reached (from "
+                  "their histories; the macro force from its history):", "",
+                  "| run | punch force [N] | compaction under punch | flange lift [mm] |",
+                  "|---|---|---|---|"]
+        for name, label in (("meso_hemisphere_free", "meso, no holder"),
+                            ("meso_hemisphere_holder", "meso, holder")):
+            lines.append(f"| {label} | {at_stroke(name, common, 'force_punch_z_N'):.3g} | "
+                         f"{at_stroke(name, common, 'compaction_mean_under_punch'):.3g} | "
+                         f"{at_stroke(name, common, 'flange_lift_max_mm'):.3g} |")
+        for name, label in (("macro_hemisphere_scaled_free", "macro, no holder"),
+                            ("macro_hemisphere_scaled_holder", "macro, holder")):
+            lines.append(f"| {label} | {at_stroke(name, common, 'force_punch_z_N'):.3g} | "
+                         "| |")
     for name in ("meso_hemisphere_free", "meso_hemisphere_holder"):
         m = (s[name] or {}).get("metrics", {})
         if m:
@@ -119,6 +146,23 @@ def main() -> None:
                 f"{100 * m['mass_added_fraction']:.0f}%.")
     update_section("meso_hemisphere", "\n".join(lines), VALIDATION_MD)
     print("\n".join(lines))
+    cost = ["## `meso_hemisphere`: cost", "",
+            "Written by `python benchmarks/validate_meso_hemisphere.py` (docs/validation.md, "
+            f"`meso_hemisphere`, has the results); {machine()}. Each meso run on one rank; "
+            "the two ran at once, and for their first part beside other runs (the wall times "
+            "are of a shared machine).", "",
+            "| run | status | load reached | elements | work | "
+            "us per element-increment | wall [s] |", "|---|---|---|---|---|---|---|"]
+    for name in RUNS:
+        r = s[name]
+        if not r:
+            continue
+        t = r["timing"]
+        per = t.get("us_per_element_increment")
+        cost.append(f"| {name} | {r['status']} | {r['load_parameter_reached']:.3f} | "
+                    f"{r['mesh']['cells']} | {t['work']} ({t['work_name']}) | "
+                    f"{'' if per is None else f'{per:.1f}'} | {t['wall_s']:.0f} |")
+    update_section("meso_hemisphere_cost", "\n".join(cost))
 
 
 if __name__ == "__main__":

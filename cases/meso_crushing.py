@@ -55,7 +55,7 @@ from forming.meso.honeycomb import (
     HoneycombPatch,
     honeycomb_mesh,
 )
-from forming.meso.post import folded_walls_picture
+from forming.meso.post import folded_walls_picture, held_nodes
 from forming.post.fields import PointIntegral
 from forming.scene import Body, Contact, Displacement, Linear, Scene, SelfContact, Tool
 from forming.solver.options import ExplicitOptions
@@ -127,13 +127,17 @@ def build(p: Params) -> Job:
     flat = half - p.fillet  # the punch's flat face, half widths
 
     def settlement(model) -> dict[str, float]:
-        """Wall tops' settlement under the flat face and outside the punch (collective)."""
+        """Wall tops' settlement under the flat face and outside the punch (collective).
+
+        Tops that only eroded cells hold are left out: they float off as fragments.
+        """
         body = model.body
         V = body.V
         n = V.dofmap.index_map.size_local
         xr = V.tabulate_dof_coordinates()[:n]
         uz = body.u.x.array.reshape(-1, 3)[:n, 2]
-        top = np.abs(xr[:, 2] - p.height) < 1e-6 * p.height
+        # the wall tops still held by a live cell (not floating eroded fragments)
+        top = (np.abs(xr[:, 2] - p.height) < 1e-6 * p.height) & held_nodes(body)
         off = np.abs(xr[:, :2] - centre)
         inside = top & np.all(off <= flat, axis=1)
         outside = top & np.any(off >= half, axis=1)

@@ -311,3 +311,27 @@ def test_meso_hemisphere_refuses_a_patch_inside_the_die():
     module = load_case("meso_hemisphere")
     with pytest.raises(InputError, match="--set cells"):
         prepare_case("meso_hemisphere", ["cells=2,2"], module.build, module.Params)
+
+
+def test_held_nodes_leave_out_what_only_eroded_cells_hold():
+    """A row of 4 x 1 x 1 cells with the cells at x < 2 eroded: the nodes at x < 1 (only
+    eroded cells hold them) float, those at x >= 2 (a live cell holds them) do not,
+    whichever rank owns the node or the cells. A failure means the crushing metrics
+    count floating fragments as wall tops (settlement beyond the punch's travel).
+    """
+    from types import SimpleNamespace
+
+    from forming.meso.post import held_nodes
+
+    md = box((4.0, 1.0, 1.0), (4, 1, 1))
+    V = fem.functionspace(md.mesh, ("Lagrange", 1, (3,)))
+    n_cells = md.mesh.topology.index_map(3).size_local
+    cells = np.arange(n_cells, dtype=np.int32)
+    from dolfinx.mesh import compute_midpoints
+
+    live = compute_midpoints(md.mesh, 3, cells)[:, 0] > 2.0
+    body = SimpleNamespace(V=V, point_cells=cells,
+                           active_points=lambda: np.repeat(live, 8))
+    held = held_nodes(body)
+    x = V.tabulate_dof_coordinates()[: V.dofmap.index_map.size_local, 0]
+    assert np.all(held[x > 1.99]) and not np.any(held[x < 1.01])

@@ -98,6 +98,7 @@ class SurfaceSelfContact:
         self.pair_state = np.zeros((self.own_rows.size, 3))
         self.pair_state[:, 0] = -1.0
         self._live = np.ones(self.n, dtype=bool)  # nodes the candidate list follows
+        self._eroded = -1  # eroded cells (all ranks) when the list was built
         self.deepest = 0.0  # deepest penetration of the run so far [mm]
 
     @staticmethod
@@ -169,11 +170,14 @@ class SurfaceSelfContact:
         """Penetrations at ``x``, from the candidate list (rebuilt when nodes moved).
 
         The list holds the triangles within twice the search depth; it is rebuilt once
-        any surface node has moved half the depth since it was built (collective).
+        any surface node has moved half the depth since it was built, or once a cell of
+        the body has eroded on any rank (its faces leave the contact at once; collective).
         """
         moved = (np.inf if self._x_list is None else float(np.max(
             np.abs(x[self._live] - self._x_list[self._live]), initial=0.0)))
-        if moved > 0.5 * self.depth:
+        eroded = self._eroded_cells()
+        if moved > 0.5 * self.depth or eroded != self._eroded:
+            self._eroded = eroded
             tri_dead, node_dead = self._dead()
             self._list = candidates(x, self.tris, self.tri_cell, self.ptr, self.cells,
                                     self.own_rows, 2.0 * self.depth, tri_dead, node_dead)
@@ -181,6 +185,15 @@ class SurfaceSelfContact:
             self._x_list = x.copy()
         return penetrations(x, self.tris, self.own_rows, *self._list, self.depth, False,
                             self.pair_state[:, 0] >= 0, ONSET * self.depth)
+
+    def _eroded_cells(self) -> int:
+        """How many cells of the body have eroded, over all ranks (collective)."""
+        body = self.body
+        count = 0
+        if getattr(body, "damaging", False) and len(body.point_cells):
+            active = body.active_points().reshape(len(body.point_cells), -1)
+            count = int(np.count_nonzero(~active.any(axis=1)))
+        return self.comm.allreduce(count, op=MPI.SUM) if self.comm.size > 1 else count
 
     def _dead(self) -> tuple[np.ndarray, np.ndarray]:
         """Triangles on eroded cells, and nodes of eroded cells only (collective).

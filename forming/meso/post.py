@@ -96,3 +96,23 @@ def wall_columns(body, height: float) -> tuple[np.ndarray, np.ndarray, np.ndarra
     if top_xy.shape != bottom_xy.shape or not np.allclose(top_xy, bottom_xy, atol=1e-6):
         raise ValueError("the walls' top and bottom nodes do not pair along z")
     return top_xy, top_z, bottom_z
+
+
+def held_nodes(body) -> np.ndarray:
+    """True at the owned nodes (blocks of ``body.V``) that a live cell holds (collective).
+
+    A node that only eroded cells hold is a floating fragment: it keeps its mass and
+    drifts, and is left out of what the walls' shape is measured by. Counts of live cells
+    are summed over the ranks that share a node.
+    """
+    from dolfinx import la
+
+    V = body.V
+    imap = V.dofmap.index_map
+    count = la.vector(imap, 1)
+    cells = body.point_cells
+    if len(cells):
+        live = body.active_points().reshape(len(cells), -1).any(axis=1)
+        np.add.at(count.array, V.dofmap.list[cells[live]].ravel(), 1.0)
+    count.scatter_reverse(la.InsertMode.add)
+    return count.array[: imap.size_local] > 0.5
