@@ -54,8 +54,7 @@ from forming.meso.honeycomb import (
     HoneycombPatch,
     honeycomb_mesh,
 )
-from forming.meso.post import folded_walls_picture, held_nodes
-from forming.post.fields import PointIntegral
+from forming.meso.post import damaged_volume, folded_walls_picture, held_nodes, plan_extent
 from forming.scene import Body, Contact, Displacement, Linear, Scene, SelfContact, Tool
 from forming.solver.options import ExplicitOptions
 from forming.solver.stepping import StepControl
@@ -96,12 +95,7 @@ def build(p: Params) -> Job:
     patch = HoneycombPatch(cell, tuple(p.cells), p.height, p.size / 2, p.layers,
                            p.imperfection, p.seed, False, 0.0, 0.3)
     mesh = honeycomb_mesh(patch)
-    x = mesh.mesh.geometry.x
-    comm = mesh.mesh.comm
-    lo = np.array([comm.allreduce(float(x[:, i].min(initial=np.inf)), op=MPI.MIN)
-                   for i in range(2)])
-    hi = np.array([comm.allreduce(float(x[:, i].max(initial=-np.inf)), op=MPI.MAX)
-                   for i in range(2)])
+    lo, hi = plan_extent(mesh.mesh)
     centre, half = (lo + hi) / 2, p.punch * (hi - lo) / 2
     if min(half) <= p.fillet:
         raise InputError("--set fillet", f"{p.fillet:g} mm does not fit a punch of half "
@@ -141,6 +135,7 @@ def build(p: Params) -> Job:
         inside = top & np.all(off <= flat, axis=1)
         outside = top & np.any(off >= half, axis=1)
         sums = np.array([-uz[inside].sum(), inside.sum(), -uz[outside].sum(), outside.sum()])
+        comm = body.mesh.comm
         comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
         largest = comm.allreduce(float((-uz[outside]).max(initial=0.0)), op=MPI.MAX)
         return {"settlement_inside_mm": sums[0] / max(sums[1], 1),
@@ -149,16 +144,8 @@ def build(p: Params) -> Job:
 
     def damaged_outside(model) -> float:
         """Share of the walls' damaged volume (damage above 0.5) outside the punch."""
-        from dolfinx.mesh import compute_midpoints
-
-        body = model.body
-        hit = body.damage() > 0.5
-        cells = body.point_cells
-        mid = compute_midpoints(body.mesh, 3, cells.astype(np.int32))[:, :2]
-        out = np.repeat(np.any(np.abs(mid - centre) >= half, axis=1), hit.size // len(cells))
-        integral = PointIntegral(body)
-        total = integral(hit.astype(float))
-        return integral((hit & out).astype(float)) / total if total > 0 else 0.0
+        return damaged_volume(model.body,
+                              lambda mid: np.any(np.abs(mid - centre) >= half, axis=1))[1]
 
     def probe(model) -> dict[str, float]:
         return settlement(model)

@@ -52,7 +52,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from mpi4py import MPI
 
 from forming.case import main, require
 from forming.contact.shapes import AnnularPlate, HemisphericalPunch
@@ -61,8 +60,7 @@ from forming.job import Job, Response
 from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.fracture import FracturingSolid
 from forming.meso.honeycomb import WALL_DENSITY, HoneycombCell, HoneycombPatch, honeycomb_mesh
-from forming.meso.post import folded_walls_picture, wall_columns
-from forming.post.fields import PointIntegral
+from forming.meso.post import damaged_volume, folded_walls_picture, plan_extent, wall_columns
 from forming.post.metrics import force_peak_final
 from forming.scene import Body, Contact, Linear, Scene, SelfContact, Tool
 from forming.solver.options import ExplicitOptions
@@ -113,12 +111,7 @@ def build(p: Params) -> Job:
     patch = HoneycombPatch(cell, tuple(p.cells), height, p.size / 2, p.layers,
                            p.imperfection, p.seed, False, 0.0, 0.3)
     mesh = honeycomb_mesh(patch)
-    x = mesh.mesh.geometry.x
-    comm = mesh.mesh.comm
-    lo = np.array([comm.allreduce(float(x[:, i].min(initial=np.inf)), op=MPI.MIN)
-                   for i in range(2)])
-    hi = np.array([comm.allreduce(float(x[:, i].max(initial=-np.inf)), op=MPI.MAX)
-                   for i in range(2)])
+    lo, hi = plan_extent(mesh.mesh)
     centre = (lo + hi) / 2
     if min(hi - lo) / 2 <= hole + edge:
         raise InputError("--set cells", f"a {hi[0] - lo[0]:.3g} x {hi[1] - lo[1]:.3g} mm "
@@ -155,19 +148,9 @@ def build(p: Params) -> Job:
 
     def damage(model) -> dict[str, float]:
         """Walls' volume with damage above 0.5: its share of the walls, and under the punch."""
-        from dolfinx.mesh import compute_midpoints
-
-        body = model.body
-        hit = body.damage() > 0.5
-        cells = body.point_cells
-        mid = compute_midpoints(body.mesh, 3, cells.astype(np.int32))[:, :2]
-        under = np.repeat(np.hypot(mid[:, 0] - cx, mid[:, 1] - cy) < radius,
-                          hit.size // max(len(cells), 1))
-        integral = PointIntegral(body)
-        total, volume = integral(hit.astype(float)), integral(np.ones(hit.size))
-        return {"damaged_volume_fraction": total / volume,
-                "damaged_under_punch_fraction":
-                    integral((hit & under).astype(float)) / total if total > 0 else 0.0}
+        share, under = damaged_volume(
+            model.body, lambda mid: np.hypot(mid[:, 0] - cx, mid[:, 1] - cy) < radius)
+        return {"damaged_volume_fraction": share, "damaged_under_punch_fraction": under}
 
     def metrics(rec, model) -> dict:
         return force_peak_final(rec, "force_punch_z_N") | shape(model) | damage(model) | {

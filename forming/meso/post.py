@@ -116,3 +116,37 @@ def held_nodes(body) -> np.ndarray:
         np.add.at(count.array, V.dofmap.list[cells[live]].ravel(), 1.0)
     count.scatter_reverse(la.InsertMode.add)
     return count.array[: imap.size_local] > 0.5
+
+
+def plan_extent(msh) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper corners of a mesh's plan (x, y) over all ranks (collective)."""
+    x = msh.geometry.x
+    comm = msh.comm
+    lo = np.array([comm.allreduce(float(x[:, i].min(initial=np.inf)), op=MPI.MIN)
+                   for i in range(2)])
+    hi = np.array([comm.allreduce(float(x[:, i].max(initial=-np.inf)), op=MPI.MAX)
+                   for i in range(2)])
+    return lo, hi
+
+
+def damaged_volume(body, where) -> tuple[float, float]:
+    """The walls' volume with damage above 0.5 (collective).
+
+    Args:
+        body: The walls (a fracturing solid).
+        where: Maps the (n, 2) plan midpoints of the owned cells to a boolean mask.
+
+    Returns:
+        (its share of the walls' volume, the share of it in the cells ``where`` picks).
+    """
+    from dolfinx.mesh import compute_midpoints
+
+    from forming.post.fields import PointIntegral
+
+    hit = body.damage() > 0.5
+    cells = body.point_cells
+    mid = compute_midpoints(body.mesh, 3, cells.astype(np.int32))[:, :2]
+    picked = np.repeat(where(mid), hit.size // max(len(cells), 1))
+    integral = PointIntegral(body)
+    total, volume = integral(hit.astype(float)), integral(np.ones(hit.size))
+    return total / volume, integral((hit & picked).astype(float)) / total if total > 0 else 0.0
