@@ -48,13 +48,14 @@ from forming.errors import InputError
 from forming.job import Job, Response
 from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.fracture import FracturingSolid
+from forming.mesh import bounding_box
 from forming.meso.honeycomb import (
     WALL_DENSITY,
     HoneycombCell,
     HoneycombPatch,
     honeycomb_mesh,
 )
-from forming.meso.post import damaged_volume, folded_walls_picture, held_nodes, plan_extent
+from forming.meso.post import damaged_volume, folded_walls_picture, held_nodes
 from forming.scene import Body, Contact, Displacement, Linear, Scene, SelfContact, Tool
 from forming.solver.options import ExplicitOptions
 from forming.solver.stepping import StepControl
@@ -95,7 +96,7 @@ def build(p: Params) -> Job:
     patch = HoneycombPatch(cell, tuple(p.cells), p.height, p.size / 2, p.layers,
                            p.imperfection, p.seed, False, 0.0, 0.3)
     mesh = honeycomb_mesh(patch)
-    lo, hi = plan_extent(mesh.mesh)
+    lo, hi = bounding_box(mesh.mesh)[:, :2]
     centre, half = (lo + hi) / 2, p.punch * (hi - lo) / 2
     if min(half) <= p.fillet:
         raise InputError("--set fillet", f"{p.fillet:g} mm does not fit a punch of half "

@@ -59,8 +59,9 @@ from forming.errors import InputError
 from forming.job import Job, Response
 from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.fracture import FracturingSolid
+from forming.mesh import bounding_box
 from forming.meso.honeycomb import WALL_DENSITY, HoneycombCell, HoneycombPatch, honeycomb_mesh
-from forming.meso.post import damaged_volume, folded_walls_picture, plan_extent, wall_columns
+from forming.meso.post import damaged_volume, folded_walls_picture, wall_columns
 from forming.post.metrics import force_peak_final
 from forming.scene import Body, Contact, Linear, Scene, SelfContact, Tool
 from forming.solver.options import ExplicitOptions
@@ -111,7 +112,7 @@ def build(p: Params) -> Job:
     patch = HoneycombPatch(cell, tuple(p.cells), height, p.size / 2, p.layers,
                            p.imperfection, p.seed, False, 0.0, 0.3)
     mesh = honeycomb_mesh(patch)
-    lo, hi = plan_extent(mesh.mesh)
+    lo, hi = bounding_box(mesh.mesh)[:, :2]
     centre = (lo + hi) / 2
     if min(hi - lo) / 2 <= hole + edge:
         raise InputError("--set cells", f"a {hi[0] - lo[0]:.3g} x {hi[1] - lo[1]:.3g} mm "

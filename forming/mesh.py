@@ -74,6 +74,18 @@ class MeshData:
         return msh.comm.allreduce(local, op=MPI.MIN)
 
 
+def bounding_box(msh) -> np.ndarray:
+    """Reference bounding box of a DOLFINx mesh over all ranks: rows min xyz, max xyz [mm].
+
+    Collective; a rank without nodes takes no part in the extremes.
+    """
+    x = msh.geometry.x
+    comm = msh.comm
+    lo = [comm.allreduce(float(x[:, i].min(initial=np.inf)), op=MPI.MIN) for i in range(3)]
+    hi = [comm.allreduce(float(x[:, i].max(initial=-np.inf)), op=MPI.MAX) for i in range(3)]
+    return np.array([lo, hi])
+
+
 def mesh_from_gmsh(gmsh, comm, partition: Partition = "graph") -> MeshData:
     """The DOLFINx mesh, tags and group names of the current gmsh model.
 

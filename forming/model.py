@@ -23,6 +23,7 @@ from forming.contact.base import Constraint
 from forming.domain import BodyDomain
 from forming.history import ForceSampler, reaction_column, reaction_key
 from forming.layout import Layout
+from forming.mesh import bounding_box
 from forming.scene import AffineDisplacement, Displacement, Scene
 
 log = logging.getLogger(__name__)
@@ -108,10 +109,8 @@ def _entity_maps(bodies: dict) -> list:
 
 def _extent_min(msh) -> float:
     """Smallest edge of the bounding box of a mesh over all ranks [mm]."""
-    x = msh.geometry.x
-    lo = [msh.comm.allreduce(float(x[:, i].min(initial=np.inf)), op=MPI.MIN) for i in range(3)]
-    hi = [msh.comm.allreduce(float(x[:, i].max(initial=-np.inf)), op=MPI.MAX) for i in range(3)]
-    return float(min(h - lo_ for lo_, h in zip(lo, hi, strict=True)))
+    lo, hi = bounding_box(msh)
+    return float((hi - lo).min())
 
 
 class Model:
@@ -242,10 +241,7 @@ class Model:
 
     def bounding_box(self) -> np.ndarray:
         """Reference bounding box of the mesh, (min xyz, max xyz), over all ranks."""
-        x = self.scene.mesh.mesh.geometry.x
-        lo = [self.comm.allreduce(x[:, i].min(), op=MPI.MIN) for i in range(3)]
-        hi = [self.comm.allreduce(x[:, i].max(), op=MPI.MAX) for i in range(3)]
-        return np.array([lo, hi])
+        return bounding_box(self.scene.mesh.mesh)
 
     def tool_bounds(self) -> tuple[float, ...]:
         """Box in which tool surfaces are drawn: the body's box, padded."""

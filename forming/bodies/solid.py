@@ -315,6 +315,12 @@ class SolidBody(BodyBase):
             return np.ones(self.n_points, dtype=bool)
         return self.plastic.ep[:, 4] == 0.0
 
+    def live_cells(self) -> np.ndarray:
+        """True at the cells of :attr:`point_cells` with a point that still carries stress."""
+        if not len(self.point_cells):
+            return np.zeros(0, dtype=bool)
+        return self.active_points().reshape(len(self.point_cells), -1).any(axis=1)
+
     @property
     def erodes(self) -> bool:
         """True when points can erode: a tool's contact then follows what erosion uncovers."""

@@ -68,7 +68,7 @@ class ExposedSurface:
         dead = np.zeros(self._n_owned, dtype=bool)
         cells = body.point_cells
         if len(cells):
-            dead[cells] = ~body.active_points().reshape(len(cells), -1).any(axis=1)
+            dead[cells] = ~body.live_cells()
         return dead
 
     def stale(self) -> bool:

@@ -189,10 +189,8 @@ class SurfaceSelfContact:
     def _eroded_cells(self) -> int:
         """How many cells of the body have eroded, over all ranks (collective)."""
         body = self.body
-        count = 0
-        if getattr(body, "damaging", False) and len(body.point_cells):
-            active = body.active_points().reshape(len(body.point_cells), -1)
-            count = int(np.count_nonzero(~active.any(axis=1)))
+        count = (int(np.count_nonzero(~body.live_cells()))
+                 if getattr(body, "damaging", False) else 0)
         return self.comm.allreduce(count, op=MPI.SUM) if self.comm.size > 1 else count
 
     def _dead(self) -> tuple[np.ndarray, np.ndarray]:
@@ -207,10 +205,9 @@ class SurfaceSelfContact:
         node_dead = np.zeros(self.n, dtype=bool)
         if not getattr(body, "damaging", False):
             return tri_dead, node_dead
-        cells = body.point_cells
-        active = body.active_points().reshape(len(cells), -1).any(axis=1)
         cmap = body.mesh.topology.index_map(body.mesh.topology.dim)
-        dead = cmap.local_to_global(cells[~active].astype(np.int32)).astype(np.int64)
+        dead = cmap.local_to_global(
+            body.point_cells[~body.live_cells()].astype(np.int32)).astype(np.int64)
         if self.comm.size > 1:
             dead = np.concatenate(self.comm.allgather(dead))
         if dead.size == 0:

@@ -112,21 +112,9 @@ def held_nodes(body) -> np.ndarray:
     count = la.vector(imap, 1)
     cells = body.point_cells
     if len(cells):
-        live = body.active_points().reshape(len(cells), -1).any(axis=1)
-        np.add.at(count.array, V.dofmap.list[cells[live]].ravel(), 1.0)
+        np.add.at(count.array, V.dofmap.list[cells[body.live_cells()]].ravel(), 1.0)
     count.scatter_reverse(la.InsertMode.add)
     return count.array[: imap.size_local] > 0.5
-
-
-def plan_extent(msh) -> tuple[np.ndarray, np.ndarray]:
-    """Lower and upper corners of a mesh's plan (x, y) over all ranks (collective)."""
-    x = msh.geometry.x
-    comm = msh.comm
-    lo = np.array([comm.allreduce(float(x[:, i].min(initial=np.inf)), op=MPI.MIN)
-                   for i in range(2)])
-    hi = np.array([comm.allreduce(float(x[:, i].max(initial=-np.inf)), op=MPI.MAX)
-                   for i in range(2)])
-    return lo, hi
 
 
 def damaged_volume(body, where) -> tuple[float, float]:
