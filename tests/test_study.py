@@ -108,14 +108,14 @@ def _study(out, levels):
 
 
 def test_study_runs_reuses_and_reports_failures(tmp_path):
-    """``forming study ironing --vary block_element=4,3,2.5,-1`` on a short slide: the
+    """``forming study ironing --vary block_element=6,5,4,-1`` on a short slide: the
     three valid levels complete and the bad one (-1 mm) is a row with status ``error``
     (the study goes on, exit code 1); ``study.csv``, ``study.md`` and the PNGs are written,
     the normal force's order is observed over the three levels, and rerunning with one
     more level runs that level only (the others are reused, their rows unchanged). The
     representative size is the element size itself (the unknowns fall as it grows)."""
     out = tmp_path / "study"
-    first = _study(out, "4,3,2.5,-1")
+    first = _study(out, "6,5,4,-1")
     assert first.returncode == 1, first.stderr[-2000:]
     rows = list(csv.DictReader(open(out / "study.csv")))
     assert [r["status"] for r in rows] == ["completed"] * 3 + ["error"]
@@ -128,13 +128,13 @@ def test_study_runs_reuses_and_reports_failures(tmp_path):
     md = (out / "study.md").read_text()
     assert "observed order" in md or "no extrapolation" in md
 
-    second = _study(out, "4,3,2.5,5")
+    second = _study(out, "6,5,4,8")
     assert second.returncode == 0, second.stderr[-2000:]
     again = list(csv.DictReader(open(out / "study.csv")))
     assert [r["reused"] for r in again] == ["True", "True", "True", "False"]
     for a, b in zip(rows[:3], again[:3], strict=True):
         assert a["normal_force_mean_N"] == b["normal_force_mean_N"]
-    s = json.loads((out / "runs" / "block_element-5" / "summary.json").read_text())
+    s = json.loads((out / "runs" / "block_element-8" / "summary.json").read_text())
     assert s["status"] == "completed"
     forces = np.array([float(r["normal_force_mean_N"]) for r in again])
     assert np.all(np.isfinite(forces)) and not math.isclose(forces[0], forces[3])
