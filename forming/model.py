@@ -49,6 +49,10 @@ class DirichletSet:
         self.reaction_weights: dict[str, tuple[str, fem.Function]] = {}
         self.affine: list[tuple[AffineDisplacement, int, fem.Function]] = []
         self._comm = scene.mesh.mesh.comm
+        # per entry of ``bcs``: its body's displacement, its dofs there (owned), and its
+        # prescribed values at them (the Constant, or the function and its own dofs)
+        self._checks: list[tuple[fem.Function, np.ndarray, fem.Constant | fem.Function,
+                                 np.ndarray | None]] = []
         several = len(bodies) > 1
         for d in scene.displacements:
             body = bodies[d.body]
@@ -60,6 +64,7 @@ class DirichletSet:
                     dofs = fem.locate_dofs_topological((body.V.sub(comp), Vc), 2, facets)
                     self.bcs.append(fem.dirichletbc(u_bc, dofs, body.V.sub(comp)))
                     self.bc_bodies.append(d.body)
+                    self._add_check(body, self.bcs[-1], u_bc, dofs[1])
                     self.affine.append((d, comp, u_bc))
                 continue
             for comp, _path in d.components():
@@ -68,6 +73,7 @@ class DirichletSet:
                 const = fem.Constant(body.mesh, 0.0)
                 self.bcs.append(fem.dirichletbc(const, dofs, Vc))
                 self.bc_bodies.append(d.body)
+                self._add_check(body, self.bcs[-1], const, None)
                 self.items.append((d, comp, const))
                 if d.reaction:
                     w = fem.Function(body.V)
@@ -78,6 +84,26 @@ class DirichletSet:
                     self.reaction_weights[key] = (d.body, w)
                     self._reaction_forms[key] = fem.form(
                         residual(d.body, w), entity_maps=_entity_maps(bodies) or None)
+
+    def _add_check(self, body, bc: fem.DirichletBC, value, value_dofs) -> None:
+        dofs, owned = bc.dof_indices()
+        self._checks.append((body.u, dofs[:owned].copy(), value,
+                             None if value_dofs is None else value_dofs[:owned].copy()))
+
+    def held(self) -> bool:
+        """Whether every prescribed dof holds exactly its prescribed value, on every rank.
+
+        Then the Dirichlet lifting of a residual, ``-J (g - u)`` over those dofs, is
+        exactly zero and need not be assembled.
+        """
+        ok = True
+        for u, dofs, value, value_dofs in self._checks:
+            have = u.x.array[dofs]
+            want = value.value if value_dofs is None else value.x.array[value_dofs]
+            if not np.array_equal(have, np.broadcast_to(want, have.shape)):
+                ok = False
+                break
+        return bool(self._comm.allreduce(ok, op=MPI.LAND))
 
     def set_load(self, t: float) -> None:
         """Set the prescribed values at load parameter ``t``."""
