@@ -125,6 +125,7 @@ class Params:
     fracture: bool = True  # walls fracture at Table 1's strain (False: elastic walls)
     fracture_strain: float = 0.067  # wall fracture strain (Table 1)
     fracture_energy: float = 7.4  # wall fracture energy G_f [N/mm] (estimate, materials.md)
+    wall_deletion: Literal["all", "first"] = "all"  # a wall element erodes: last point / first
     erosion: bool = True  # erode spent points (implicit: needs the stabilisation)
     damage_viscosity: float = 0.0  # viscous lag of the walls' damage [mm of platen travel]
     strain: float = 0.06  # nominal strain reached (0 < strain < 1)
@@ -316,6 +317,7 @@ def _walls(p: Params) -> FracturingSolid | ElasticSolid:
     if p.fracture:
         return FracturingSolid(cardboard, p.fracture_strain, p.fracture_energy,
                                erosion=p.erosion, viscosity=p.damage_viscosity,
+                               element_deletion=p.wall_deletion,
                                density=WALL_DENSITY)
     return ElasticSolid(cardboard, density=WALL_DENSITY)
 

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from mpi4py import MPI
@@ -77,6 +78,7 @@ class Params:
     wall_poisson: float = 0.21  # wall Poisson ratio (Table 1)
     fracture_strain: float = 0.067  # wall fracture strain (Table 1)
     fracture_energy: float = 7.4  # wall fracture energy G_f [N/mm] (estimate)
+    wall_deletion: Literal["all", "first"] = "all"  # a wall element erodes: last point / first
     punch: float = 0.5  # punch width over the patch's width (and depth)
     fillet: float = 2.0  # punch edge fillet radius [mm]
     stroke: float = 0.5  # punch travel over the core height (the paper: half)
@@ -107,7 +109,7 @@ def build(p: Params) -> Job:
     travel = p.stroke * p.height
     walls = FracturingSolid(IsotropicElasticity(p.wall_modulus, p.wall_poisson),
                             p.fracture_strain, p.fracture_energy, erosion=True,
-                            density=WALL_DENSITY)
+                            element_deletion=p.wall_deletion, density=WALL_DENSITY)
     scene = Scene(
         name="meso_crushing",
         mesh=mesh,

@@ -50,6 +50,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -88,6 +89,7 @@ class Params:
     wall_poisson: float = 0.21  # wall Poisson ratio (Table 1)
     fracture_strain: float = 0.067  # wall fracture strain (Table 1)
     fracture_energy: float = 7.4  # wall fracture energy G_f [N/mm] (estimate)
+    wall_deletion: Literal["all", "first"] = "all"  # a wall element erodes: last point / first
     friction: float = 0.36  # tool-core friction (stated)
     stroke: float = 0.5  # share of the scaled stroke run (1: the paper's full stroke)
     imperfection: float = 0.05  # largest imperfection move [mm]
@@ -129,7 +131,7 @@ def build(p: Params) -> Job:
         contacts.append(Contact("walls", "top_sides", "holder", friction=p.friction))
     walls = FracturingSolid(IsotropicElasticity(p.wall_modulus, p.wall_poisson),
                             p.fracture_strain, p.fracture_energy, erosion=True,
-                            density=WALL_DENSITY)
+                            element_deletion=p.wall_deletion, density=WALL_DENSITY)
     scene = Scene(
         name="meso_hemisphere", mesh=mesh, bodies=(Body("walls", walls, degree=2),),
         tools=tuple(tools), contacts=tuple(contacts),

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Literal
 
 import numpy as np
 
@@ -49,6 +50,12 @@ class FracturingSolid:
             value, damaged or not: element deletion at a failure strain, as the paper's
             dummy materials (Table 3). None: no deletion (``erosion`` alone erodes spent
             bands). Explicit runs: an eroded region has no stiffness left.
+        element_deletion: When an element erodes: ``"all"`` (default) once every one of
+            its points has, ``"first"`` with its first, the rule of explicit codes'
+            solid element deletion (Abaqus/Explicit's and LS-DYNA's default). With
+            ``"all"`` a cracked element whose other points still carry stress stays, and
+            can stretch far; with ``"first"`` it goes, and the crack opens by a whole
+            element. One-point (reduced) elements: the same.
         viscosity: Viscous regularisation of the damage [mm of the tools' travel]: the
             damage follows its rate-independent value with this lag (0: none, the
             default). Implicit runs only; it needs something in the scene to move.
@@ -62,6 +69,7 @@ class FracturingSolid:
     max_damage: float = 0.99
     erosion: bool = False
     deletion_strain: float | None = None
+    element_deletion: Literal["all", "first"] = "all"
     viscosity: float = 0.0
     strain_measure: StrainMeasure = "hencky"
     density: float | None = None
@@ -80,6 +88,9 @@ class FracturingSolid:
         if d is not None and not (isinstance(d, int | float) and math.isfinite(d) and d > 0):
             raise InputError("material.deletion_strain",
                              f"must be a positive number or None, got {d!r}")
+        if self.element_deletion not in ("all", "first"):
+            raise InputError("material.element_deletion",
+                             f"must be 'all' or 'first', got {self.element_deletion!r}")
         if not (0.0 < self.max_damage < 1.0):
             raise InputError("material.max_damage",
                              f"must lie in (0, 1), got {self.max_damage!r}")

@@ -131,6 +131,9 @@ def evaluate(
                                     d, hist_out, kappa_out, want_tangent)
         if not frozen:
             ep_out, evp_out = hist_out, kappa_out
+            if (cells is not None and per_cell > 1
+                    and getattr(material, "element_deletion", "all") == "first"):
+                _erode_whole_cells(hist_out, int(per_cell))
         return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad),
                            int(worst))
     if frozen:  # elastic about the plastic state: no return mapping, state unchanged
@@ -144,6 +147,15 @@ def evaluate(
         mode, h,
     )
     return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad), int(worst))
+
+
+def _erode_whole_cells(hist: np.ndarray, per_cell: int) -> None:
+    """Every point of a cell with an eroded point is eroded too (from the next step on).
+
+    ``hist`` is the damage history ``[d, h, D, Y, eroded, 0]`` of whole cells in turn.
+    """
+    hit = hist[:, 4].reshape(-1, per_cell).max(axis=1) > 0.0
+    hist[np.repeat(hit, per_cell), 4] = 1.0
 
 
 _NO_TANGENT = np.zeros((0, 36))  # the stress-only kernels never write a tangent
