@@ -118,6 +118,14 @@ class ImplicitSolver:
         snes = self.problem.solver
         if model.sliding:  # entries between bodies that the forms' sparsity does not have
             self.problem.A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+        if len(bodies) > 1 and self.options.zeros == "drop":
+            # An interface's facet forms fill an element matrix over both cells of the
+            # facet, of which the vertex rule makes most entries exactly zero (59% of
+            # the stored entries of the 8,8,2 sandwich hemisphere's Jacobian). Zeros are
+            # not inserted, the pattern keeps only what was ever non-zero, and an entry
+            # that becomes non-zero later is added (PETSc then redoes the symbolic LU).
+            self.problem.A.setOption(PETSc.Mat.Option.IGNORE_ZERO_ENTRIES, True)
+            self.problem.A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         self._fctx = {"u": self._u, "residual": self.problem.F, "jacobian": self.problem.J,
                       "bcs": bcs}
         if (blocks := self.problem.b.getAttr("_blocks")) is not None:
@@ -411,7 +419,8 @@ class ImplicitSolver:
         multiplier updates made inside it), ``contact_s`` the constraint checks and
         multiplier updates;
         ``per_iteration_ms`` divides each by the Newton iterations; ``linear_solver``
-        names the solver used (``auto`` chosen for the model's size).
+        names the solver used (``auto`` chosen for the model's size);
+        ``jacobian_nonzeros`` is the entries the Jacobian stores at the end, over ranks.
         """
         comm = self.model.comm
 
@@ -427,6 +436,8 @@ class ImplicitSolver:
                  "contact_s": contact}
         its = max(self._work_total, 1)
         return {"linear_solver": self.options.linear_solver,
+                "jacobian_nonzeros": int(self.problem.A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)
+                                         ["nz_used"]),
                 "newton_iterations": self._work_total,
                 "newton_per_step": self._work_accepted / max(self._steps, 1),
                 "assembly_s": split["assembly_s"],

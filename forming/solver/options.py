@@ -62,6 +62,10 @@ class NewtonOptions:
             their setting.
         spring_escalation_hold: Accepted steps after which a stiffened spring steps back
             down by one factor.
+        zeros: The exact zeros of a several-body Jacobian: ``"drop"`` (default) inserts
+            none, so the matrix keeps only entries that were ever non-zero (an
+            interface's facet forms fill their element matrices mostly with zeros), or
+            ``"keep"``, the full pattern of the forms. The same solution to round-off.
         petsc: Extra PETSc options for the SNES prefix, overriding the defaults; the
             command line (``-forming_<key> value``) overrides both.
     """
@@ -79,6 +83,7 @@ class NewtonOptions:
     spring_escalation: float = 10.0
     spring_escalation_max: float = 100.0
     spring_escalation_hold: int = 10
+    zeros: Literal["drop", "keep"] = "drop"
     petsc: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -97,6 +102,8 @@ class NewtonOptions:
         if self.multipliers not in ("newton", "uzawa"):
             raise InputError("solver.multipliers", f"must be 'newton' or 'uzawa', got "
                              f"{self.multipliers!r}")
+        if self.zeros not in ("drop", "keep"):
+            raise InputError("newton.zeros", f"must be 'drop' or 'keep', got {self.zeros!r}")
         if not self.force_rtol >= 0.0:
             raise InputError("solver.force_rtol", f"must be >= 0, got {self.force_rtol}")
         if self.max_it < 1:
