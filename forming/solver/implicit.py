@@ -49,7 +49,7 @@ def _assemble_held_residual(x: PETSc.Vec, b: PETSc.Vec, residual, bcs,
         local.set(0.0)
     assemble_vector(b, residual)
     b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    if isinstance(residual, list):
+    if isinstance(residual, list | tuple):  # one form per body
         set_bc(b, fem.bcs_by_block(fem.extract_function_spaces(residual), bcs), x0=x,
                alpha=-1.0)
     else:
