@@ -64,7 +64,7 @@ class DirichletSet:
                     dofs = fem.locate_dofs_topological((body.V.sub(comp), Vc), 2, facets)
                     self.bcs.append(fem.dirichletbc(u_bc, dofs, body.V.sub(comp)))
                     self.bc_bodies.append(d.body)
-                    self._add_check(body, self.bcs[-1], u_bc, dofs[1])
+                    self._add_check(body, dofs[0], u_bc, dofs[1])
                     self.affine.append((d, comp, u_bc))
                 continue
             for comp, _path in d.components():
@@ -73,7 +73,7 @@ class DirichletSet:
                 const = fem.Constant(body.mesh, 0.0)
                 self.bcs.append(fem.dirichletbc(const, dofs, Vc))
                 self.bc_bodies.append(d.body)
-                self._add_check(body, self.bcs[-1], const, None)
+                self._add_check(body, dofs, const, None)
                 self.items.append((d, comp, const))
                 if d.reaction:
                     w = fem.Function(body.V)
@@ -85,10 +85,16 @@ class DirichletSet:
                     self._reaction_forms[key] = fem.form(
                         residual(d.body, w), entity_maps=_entity_maps(bodies) or None)
 
-    def _add_check(self, body, bc: fem.DirichletBC, value, value_dofs) -> None:
-        dofs, owned = bc.dof_indices()
-        self._checks.append((body.u, dofs[:owned].copy(), value,
-                             None if value_dofs is None else value_dofs[:owned].copy()))
+    def _add_check(self, body, dofs: np.ndarray, value, value_dofs) -> None:
+        """Record a prescribed set for :meth:`held`.
+
+        Keeps its owned dofs in ``body.u`` and, for a function's values, the matching
+        dofs of that function, in the same order.
+        """
+        imap = body.V.dofmap.index_map
+        owned = dofs < imap.size_local * body.V.dofmap.index_map_bs
+        self._checks.append((body.u, dofs[owned].copy(), value,
+                             None if value_dofs is None else value_dofs[owned].copy()))
 
     def held(self) -> bool:
         """Whether every prescribed dof holds exactly its prescribed value, on every rank.
