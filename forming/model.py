@@ -365,8 +365,10 @@ class Model:
         """Rank means [s] of the contact searches and evaluations outside the forms.
 
         ``contact_search_s``: closest-point queries on surface-mesh tools; ``sliding_s``:
-        finite sliding (search, the pairs' residuals and Jacobians). Each only for a scene
-        that has such tools or interfaces.
+        finite sliding (search, the pairs' residuals and Jacobians), and
+        ``sliding_imbalance``, its busiest rank's time over the mean (the pairs are each
+        rank's own slave nodes: where one rank holds most of them, the other waits for it
+        in the assembly). Each only for a scene that has such tools or interfaces.
         """
         out = {}
         shapes = [t.shape for t in self.scene.tools if t.shape.tracked]
@@ -376,6 +378,8 @@ class Model:
         if self.sliding:
             local = sum(sl.seconds for sl in self.sliding)
             out["sliding_s"] = self.comm.allreduce(local) / self.comm.size
+            busiest = self.comm.allreduce(local, op=MPI.MAX)
+            out["sliding_imbalance"] = busiest / out["sliding_s"] if out["sliding_s"] else 1.0
         return out
 
     def add_residual(self, b) -> None:
