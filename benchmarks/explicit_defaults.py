@@ -62,7 +62,7 @@ def _table_rows() -> tuple[dict[str, dict], str]:
                           "ke_ie": float(cells[4].rstrip("%")) / 100,
                           "quasi_static": cells[5] == "yes", "balance": float(cells[6]),
                           "hourglass": 0.0, "wall": float(cells[7]), "reason": ""}
-    notes = re.findall(r"^- `(\w+)`: (taken from .*)$", body, flags=re.M)
+    notes = re.findall(r"^- `(\w+)`: (.*)$", body, flags=re.M)  # a row's source
     for name, note in notes:
         if name in rows:
             rows[name]["source"] = note
@@ -110,14 +110,14 @@ def main() -> int:
             raise SystemExit(f"--reuse {item!r}: expected CASE=FOLDER with CASE one of "
                              f"{', '.join(CASES)}")
         rows[name] = _reused(name, Path(folder))
+    if args.only is not None:
+        unknown = sorted(set(args.only) - set(CASES))
+        if unknown:
+            raise SystemExit(f"--only: unknown case(s) {unknown}; one of {CASES}")
+    # With --keep-table or --reuse only the --only cases run (none without it).
+    to_run = args.only if args.only is not None else (
+        [] if args.keep_table or args.reuse else list(CASES))
     with tempfile.TemporaryDirectory() as tmp:
-        if args.only is not None:
-            unknown = sorted(set(args.only) - set(CASES))
-            if unknown:
-                raise SystemExit(f"--only: unknown case(s) {unknown}; one of {CASES}")
-        # With --keep-table or --reuse only the --only cases run (none without it).
-        to_run = args.only if args.only is not None else (
-            [] if args.keep_table or args.reuse else list(CASES))
         for name in CASES:
             if name not in to_run:
                 continue
