@@ -68,7 +68,7 @@ class Params:
     core_layers: int = 2  # core elements through the thickness
     skin_refinement: int = 1  # skin elements per core element in plan
     skin_stabilisation: float = 1e-3  # skin-core stabilising spring, fraction of the penalty
-    clearance: float = 1.0  # gap between the open upper tool and the blank [mm]
+    clearance: float = 0.0  # gap between the open upper tool and the blank [mm]; > 0 floats it
     contact_tolerance: float | None = None  # skin-tool penetration allowed [mm]; none: 1% ply
     bridging_gap: float = 0.5  # a skin farther than this from its tool is bridging [mm]
     curve: str | None = None  # C365 curve CSV; none: shipped estimate

@@ -328,3 +328,29 @@ def test_demonstrator_closes_the_tools_and_reaches_the_cavity(tmp_path):
                 "fibre_compression_map", "section_y0", "closing_force"):
         assert (tmp_path / f"{png}.png").is_file(), png
     assert (tmp_path / "forming_map.npz").is_file()
+
+
+def test_the_blank_is_held_along_the_closing_direction_from_the_first_step(tmp_path):
+    """The default start, on the 60 mm mesh: after the first load step a rigid lift of
+    the whole blank (every body's nodes moved 1 mm along z) meets the tools' contact
+    stiffness: e.K.e above 100 N/mm (3,004 N/mm measured; 4e-11 N/mm, none, with the upper
+    tool starting 1 mm above the blank). A failure means the blank floats again before
+    the upper tool touches it: nothing then sets its height but the round-off of the
+    linear solves, which differs between partitions and between runs on several ranks,
+    and serial and parallel runs part from the first steps (docs/theory.md, section 16)."""
+    from helpers import block_vector, free_mask
+
+    from forming.case import load_case
+    from forming.simulation import Simulation
+
+    case = load_case("demonstrator")
+    sim = Simulation(case.build(case.Params(element_size=60.0)), tmp_path, case="demonstrator")
+    assert sim.step().converged
+    model, A = sim.model, sim.solver.problem.A
+    free = free_mask(model, A.getLocalSize()[1])
+    lift = block_vector(model, {n: lambda X: np.tile([0.0, 0.0, 1.0], (len(X), 1))
+                                for n in model.names}) * free
+    x, y = A.createVecs()
+    x.array[:] = lift
+    A.mult(x, y)
+    assert float(lift @ (y.array * free)) > 100.0
