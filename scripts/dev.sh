@@ -123,7 +123,10 @@ cd "$repo"
 # by side, before the processes that need them (test workers, MPI ranks) would each
 # compile them at the same time.
 warm_kernels() {
-    [[ -n "$(find "$NUMBA_CACHE_DIR" -name '*.nbi' -print -quit 2>/dev/null)" ]] && return 0
+    # the cache of this version of the sources (forming/kernelcache.py: one folder each)
+    local dir
+    dir="$("$venv/bin/python" -c 'from forming.kernelcache import cache_dir; print(cache_dir())')"
+    [[ -n "$(find "$dir" -name '*.nbi' -print -quit 2>/dev/null)" ]] && return 0
     echo "dev.sh: cold numba cache: compiling the kernels (forming warmup, two parts)" >&2
     local a b rc=0
     "$venv/bin/forming" warmup --part materials & a=$!

@@ -124,6 +124,30 @@ def distinct_facets(on, ptr, pfacet):
 
 
 @numba.njit(cache=True)
+def jacobian_blocks(nk, row_at, col_at, val_at, use_area):
+    """The blocks :func:`jacobian_all` writes, for :func:`forming.petscblocks.add_blocks`.
+
+    One row per block: first row, rows, first column, columns, first value. Node to
+    point: one 27 x 27 block per pair; area transfer: 15 x 27, then 12 x 39 per facet.
+    """
+    n = nk.shape[0] + (np.sum(nk) if use_area else 0)
+    out = np.empty((n, 5), dtype=np.int64)
+    j = 0
+    for k in range(nk.shape[0]):
+        r, c, v = row_at[k], col_at[k], val_at[k]
+        if not use_area:
+            out[j] = (r, 27, c, 27, v)
+            j += 1
+            continue
+        out[j] = (r, 15, c, 27, v)
+        j += 1
+        for q in range(nk[k]):
+            out[j] = (r + 15 + 12 * q, 12, c + 27 + 39 * q, 39, v + 405 + 468 * q)
+            j += 1
+    return out
+
+
+@numba.njit(cache=True)
 def jacobian_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, touched, rel,
                  lam_n, lam_t, node_normal, open_sides, area, eps, mu, s_el, kappa, width,
                  use_area, ptr, offsets, phi, pfacet, pxi, row_at, col_at, val_at,

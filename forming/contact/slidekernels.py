@@ -69,29 +69,33 @@ def project_quad(x, X, xi0, eta0):
     lie beyond +/-1 (the point projects outside the facet). Scalar arithmetic only (no
     temporary arrays: it runs for every point at every evaluation).
     """
-    # X(xi, eta) = c0 + xi c1 + eta c2 + xi eta c3
-    c0 = np.empty(3)
-    c1 = np.empty(3)
-    c2 = np.empty(3)
-    c3 = np.empty(3)
-    for j in range(3):
-        c0[j] = 0.25 * (X[0, j] + X[1, j] + X[2, j] + X[3, j])
-        c1[j] = 0.25 * (-X[0, j] + X[1, j] + X[2, j] - X[3, j])
-        c2[j] = 0.25 * (-X[0, j] - X[1, j] + X[2, j] + X[3, j])
-        c3[j] = 0.25 * (X[0, j] - X[1, j] + X[2, j] - X[3, j])
+    # X(xi, eta) = c0 + xi c1 + eta c2 + xi eta c3, one scalar per component
+    c0x = 0.25 * (X[0, 0] + X[1, 0] + X[2, 0] + X[3, 0])
+    c0y = 0.25 * (X[0, 1] + X[1, 1] + X[2, 1] + X[3, 1])
+    c0z = 0.25 * (X[0, 2] + X[1, 2] + X[2, 2] + X[3, 2])
+    c1x = 0.25 * (-X[0, 0] + X[1, 0] + X[2, 0] - X[3, 0])
+    c1y = 0.25 * (-X[0, 1] + X[1, 1] + X[2, 1] - X[3, 1])
+    c1z = 0.25 * (-X[0, 2] + X[1, 2] + X[2, 2] - X[3, 2])
+    c2x = 0.25 * (-X[0, 0] - X[1, 0] + X[2, 0] + X[3, 0])
+    c2y = 0.25 * (-X[0, 1] - X[1, 1] + X[2, 1] + X[3, 1])
+    c2z = 0.25 * (-X[0, 2] - X[1, 2] + X[2, 2] + X[3, 2])
+    c3x = 0.25 * (X[0, 0] - X[1, 0] + X[2, 0] - X[3, 0])
+    c3y = 0.25 * (X[0, 1] - X[1, 1] + X[2, 1] - X[3, 1])
+    c3z = 0.25 * (X[0, 2] - X[1, 2] + X[2, 2] - X[3, 2])
     xi, eta = xi0, eta0
     for _it in range(25):
-        f1 = f2 = rt12 = a11 = a22 = a12 = 0.0
-        for j in range(3):
-            t1 = c1[j] + eta * c3[j]
-            t2 = c2[j] + xi * c3[j]
-            r = x[j] - (c0[j] + xi * c1[j] + eta * c2[j] + xi * eta * c3[j])
-            f1 += r * t1
-            f2 += r * t2
-            rt12 += r * c3[j]
-            a11 += t1 * t1
-            a22 += t2 * t2
-            a12 += t1 * t2
+        t1x, t1y, t1z = c1x + eta * c3x, c1y + eta * c3y, c1z + eta * c3z
+        t2x, t2y, t2z = c2x + xi * c3x, c2y + xi * c3y, c2z + xi * c3z
+        rx = x[0] - (c0x + xi * c1x + eta * c2x + xi * eta * c3x)
+        ry = x[1] - (c0y + xi * c1y + eta * c2y + xi * eta * c3y)
+        rz = x[2] - (c0z + xi * c1z + eta * c2z + xi * eta * c3z)
+        # the sums in the order of a loop over the components (from zero)
+        f1 = 0.0 + rx * t1x + ry * t1y + rz * t1z
+        f2 = 0.0 + rx * t2x + ry * t2y + rz * t2z
+        rt12 = 0.0 + rx * c3x + ry * c3y + rz * c3z
+        a11 = 0.0 + t1x * t1x + t1y * t1y + t1z * t1z
+        a22 = 0.0 + t2x * t2x + t2y * t2y + t2z * t2z
+        a12 = 0.0 + t1x * t2x + t1y * t2y + t1z * t2z
         a12 -= rt12
         det = a11 * a22 - a12 * a12
         if det <= 0.0:
@@ -146,6 +150,105 @@ def ramp(trial, width):
 
 
 @numba.njit(cache=True)
+def shape_tuple(xi, eta):
+    """:func:`shape` as a tuple (no array: for the per-pair kernels)."""
+    return (0.25 * (1 - xi) * (1 - eta), 0.25 * (1 + xi) * (1 - eta),
+            0.25 * (1 + xi) * (1 + eta), 0.25 * (1 - xi) * (1 + eta))
+
+
+@numba.njit(cache=True)
+def _point(X, N):
+    """The facet point ``sum_a N_a X_a``, summed as :func:`frame` sums it."""
+    px, py, pz = 0.0, 0.0, 0.0
+    for a in range(4):
+        px += N[a] * X[a, 0]
+        py += N[a] * X[a, 1]
+        pz += N[a] * X[a, 2]
+    return px, py, pz
+
+
+@numba.njit(cache=True)
+def _pair(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el, area,
+          open_sides, kappa, width, out, mode_p, mode_t, extra):
+    """:func:`pair_residual` without temporary arrays: shear and spring into ``extra``.
+
+    ``extra`` (6,): the shear traction, then the spring's force. Returns the gap, the
+    pressure and the two decisions. The arithmetic is :func:`pair_residual`'s, operation
+    for operation (the results are the same to the bit).
+    """
+    x0, x1, x2 = z[0], z[1], z[2]
+    X = z[3:15].reshape(4, 3)
+    H = z[15:27].reshape(4, 3)
+    xi, eta = project_quad(z[0:3], X, xi0, eta0)
+    N = shape_tuple(xi, eta)
+    pm0, pm1, pm2 = _point(X, N)
+    # the smoothed normal: nodal normals interpolated, normalised
+    n0, n1, n2 = 0.0, 0.0, 0.0
+    for a in range(4):
+        n0 += N[a] * nn[a, 0]
+        n1 += N[a] * nn[a, 1]
+        n2 += N[a] * nn[a, 2]
+    size_n = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    n0, n1, n2 = n0 / size_n, n1 / size_n, n2 / size_n
+    g = (x0 - pm0) * n0 + (x1 - pm1) * n1 + (x2 - pm2) * n2
+    trial_p = lam_n - eps * g
+    edge = -0.5 * width if width > 0.0 else -eps * TOUCH
+    closed = trial_p >= edge if mode_p < 0 else mode_p == 1
+    p = ramp(trial_p, width) if closed else 0.0
+    s0, s1, s2 = 0.0, 0.0, 0.0
+    slipping = False
+    Nh = shape_tuple(hxi, heta)
+    if mu > 0.0 and closed:
+        limit = mu * p
+        d = lam_t[0] * n0 + lam_t[1] * n1 + lam_t[2] * n2
+        tr0, tr1, tr2 = lam_t[0] - d * n0, lam_t[1] - d * n1, lam_t[2] - d * n2
+        if has_hist:
+            sl0, sl1, sl2 = x0 - rel[0], x1 - rel[1], x2 - rel[2]
+            for a in range(4):
+                sl0 -= Nh[a] * H[a, 0]
+                sl1 -= Nh[a] * H[a, 1]
+                sl2 -= Nh[a] * H[a, 2]
+            ds = sl0 * n0 + sl1 * n1 + sl2 * n2
+            sl0, sl1, sl2 = sl0 - ds * n0, sl1 - ds * n1, sl2 - ds * n2
+            # elastic slip: stiffness mu p / s_el; s_el = 0: the penalty eps (explicit runs)
+            c = limit / s_el if s_el > 0.0 else eps
+            tr0, tr1, tr2 = tr0 - c * sl0, tr1 - c * sl1, tr2 - c * sl2
+        size = math.sqrt(tr0 ** 2 + tr1 ** 2 + tr2 ** 2 + 1e-30)
+        slipping = size > limit + 1e-12 if mode_t < 0 else mode_t == 1
+        if slipping:
+            f = limit / size
+            s0, s1, s2 = f * tr0, f * tr1, f * tr2
+        else:
+            s0, s1, s2 = tr0, tr1, tr2
+    t0, t1, t2 = p * n0 + s0, p * n1 + s1, p * n2 + s2
+    # past an edge of the master surface (not an edge shared with another facet) a node
+    # sliding off the master lets go gradually, not at once
+    beyond = max(open_sides[0] * (-1.0 - xi), open_sides[1] * (xi - 1.0),
+                 open_sides[2] * (-1.0 - eta), open_sides[3] * (eta - 1.0))
+    share = area * max(0.0, 1.0 - beyond / FADE) if beyond > 0.0 else area
+    sp0, sp1, sp2 = 0.0, 0.0, 0.0
+    if kappa > 0.0:
+        sp0, sp1, sp2 = rel[0] - x0, rel[1] - x1, rel[2] - x2
+        for a in range(4):
+            sp0 += Nh[a] * H[a, 0]
+            sp1 += Nh[a] * H[a, 1]
+            sp2 += Nh[a] * H[a, 2]
+        ka = kappa * area
+        sp0, sp1, sp2 = sp0 * ka, sp1 * ka, sp2 * ka
+    t = (t0, t1, t2)
+    sp = (sp0, sp1, sp2)
+    for j in range(3):
+        out[j] = -share * t[j] - sp[j]
+        for a in range(4):
+            out[3 + 3 * a + j] = share * N[a] * t[j]
+        for a in range(4):
+            out[15 + 3 * a + j] = Nh[a] * sp[j]
+    extra[0], extra[1], extra[2] = s0, s1, s2
+    extra[3], extra[4], extra[5] = sp0, sp1, sp2
+    return g, p, closed, slipping
+
+
+@numba.njit(cache=True)
 def pair_residual(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el,
                   area, open_sides, kappa, width, out, mode_p=-1, mode_t=-1):
     """Residual (27,) of one slave node on its facet, for the dofs ``z`` (27,).
@@ -166,55 +269,11 @@ def pair_residual(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps,
     ``max(0, trial)``; else :func:`ramp`). Returns the gap, the pressure, the shear
     traction, the two decisions and the spring's force on the slave (3,).
     """
-    x = z[0:3]
-    X = z[3:15].reshape(4, 3)
-    H = z[15:27].reshape(4, 3)
-    xi, eta = project_quad(x, X, xi0, eta0)
-    _nf, p_m, _g = normal_gap(x, X, xi, eta)
-    n = smooth_normal(nn, xi, eta)
-    g = (x[0] - p_m[0]) * n[0] + (x[1] - p_m[1]) * n[1] + (x[2] - p_m[2]) * n[2]
-    trial_p = lam_n - eps * g
-    edge = -0.5 * width if width > 0.0 else -eps * TOUCH
-    closed = trial_p >= edge if mode_p < 0 else mode_p == 1
-    p = ramp(trial_p, width) if closed else 0.0
-    shear = np.zeros(3)
-    slipping = False
-    if mu > 0.0 and closed:
-        limit = mu * p
-        trial = lam_t - (lam_t[0] * n[0] + lam_t[1] * n[1] + lam_t[2] * n[2]) * n
-        if has_hist:
-            Nh = shape(hxi, heta)
-            slip = x - rel
-            for a in range(4):
-                slip -= Nh[a] * H[a]
-            slip -= (slip[0] * n[0] + slip[1] * n[1] + slip[2] * n[2]) * n
-            # elastic slip: stiffness mu p / s_el; s_el = 0: the penalty eps (explicit runs)
-            trial -= (limit / s_el if s_el > 0.0 else eps) * slip
-        size = math.sqrt(trial[0] ** 2 + trial[1] ** 2 + trial[2] ** 2 + 1e-30)
-        slipping = size > limit + 1e-12 if mode_t < 0 else mode_t == 1
-        shear = (limit / size) * trial if slipping else trial
-    t = p * n + shear
-    N = shape(xi, eta)
-    # past an edge of the master surface (not an edge shared with another facet) a node
-    # sliding off the master lets go gradually, not at once
-    beyond = max(open_sides[0] * (-1.0 - xi), open_sides[1] * (xi - 1.0),
-                 open_sides[2] * (-1.0 - eta), open_sides[3] * (eta - 1.0))
-    share = area * max(0.0, 1.0 - beyond / FADE) if beyond > 0.0 else area
-    spring = np.zeros(3)
-    Nh = shape(hxi, heta)
-    if kappa > 0.0:
-        for j in range(3):
-            spring[j] = rel[j] - x[j]
-            for a in range(4):
-                spring[j] += Nh[a] * H[a, j]
-            spring[j] *= kappa * area
-    for j in range(3):
-        out[j] = -share * t[j] - spring[j]
-        for a in range(4):
-            out[3 + 3 * a + j] = share * N[a] * t[j]
-        for a in range(4):
-            out[15 + 3 * a + j] = Nh[a] * spring[j]
-    return g, p, shear, closed, slipping, spring
+    extra = np.empty(6)
+    g, p, closed, slipping = _pair(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n,
+                                   lam_t, eps, mu, s_el, area, open_sides, kappa, width, out,
+                                   mode_p, mode_t, extra)
+    return g, p, extra[:3].copy(), closed, slipping, extra[3:].copy()
 
 
 @numba.njit(cache=True)
@@ -231,18 +290,19 @@ def pair_jacobian(z, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps,
             zp[3 * k + j] -= z[j]
     rp = np.zeros(27)
     rm = np.zeros(27)
-    _g, _p, _s, closed, slipping, _f = pair_residual(
-        zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el, area,
-        open_sides, kappa, width, rp)
+    extra = np.empty(6)
+    _g, _p, closed, slipping = _pair(zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n,
+                                     lam_t, eps, mu, s_el, area, open_sides, kappa, width,
+                                     rp, -1, -1, extra)
     mode_p, mode_t = int(closed), int(slipping)
     for k in range(27):
         zk = zp[k]
         zp[k] = zk + _H
-        pair_residual(zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu,
-                      s_el, area, open_sides, kappa, width, rp, mode_p, mode_t)
+        _pair(zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el, area,
+              open_sides, kappa, width, rp, mode_p, mode_t, extra)
         zp[k] = zk - _H
-        pair_residual(zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu,
-                      s_el, area, open_sides, kappa, width, rm, mode_p, mode_t)
+        _pair(zp, nn, xi0, eta0, hxi, heta, has_hist, rel, lam_n, lam_t, eps, mu, s_el, area,
+              open_sides, kappa, width, rm, mode_p, mode_t, extra)
         zp[k] = zk
         for i in range(27):
             out[i, k] = (rp[i] - rm[i]) / (2.0 * _H)

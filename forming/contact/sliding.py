@@ -47,13 +47,20 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from forming.contact.nodal import critical_damping
-from forming.contact.slidebatch import distinct_facets, jacobian_all, pair_all, residual_all
+from forming.contact.slidebatch import (
+    distinct_facets,
+    jacobian_all,
+    jacobian_blocks,
+    pair_all,
+    residual_all,
+)
 from forming.contact.slidekernels import FADE
 from forming.contact.slidesurface import INSIDE, Surface, node_normals, search_all
 from forming.contact.terms import surface_edge_min
 from forming.contact.tributary import AreaTransfer, bilinear_points
 from forming.history import ForceSampler
 from forming.layout import Layout
+from forming.petscblocks import add_blocks
 from forming.vectors import assembled
 
 
@@ -337,19 +344,8 @@ class SlidingTerm:
                      self.area, self.penalty, self.friction, self.elastic_slip, self.kappa,
                      self.width, self.spreading is not None, ptr, offsets, phi, pfacet, pxi,
                      row_at, col_at, val_at, rows, cols, values)
-        rows = rows.astype(PETSc.IntType)
-        cols = cols.astype(PETSc.IntType)
-        add = PETSc.InsertMode.ADD_VALUES
-        for k in range(len(on)):
-            r, c, v = row_at[k], col_at[k], val_at[k]
-            if self.spreading is None:
-                A.setValues(rows[r:r + 27], cols[c:c + 27], values[v:v + 729], addv=add)
-                continue
-            A.setValues(rows[r:r + 15], cols[c:c + 27], values[v:v + 405], addv=add)
-            for q in range(nk[k]):
-                rq, cq, vq = r + 15 + 12 * q, c + 27 + 39 * q, v + 405 + 468 * q
-                A.setValues(rows[rq:rq + 12], cols[cq:cq + 39], values[vq:vq + 468],
-                            addv=add)
+        add_blocks(A, jacobian_blocks(nk, row_at, col_at, val_at, self.spreading is not None),
+                   rows, cols, values)
         self.seconds += time.perf_counter() - t0
         A.assemble()
 

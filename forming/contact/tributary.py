@@ -23,7 +23,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from forming.contact.slidekernels import frame, project_quad, shape
+from forming.contact.slidekernels import project_quad, shape, shape_tuple
 from forming.contact.slidesurface import ring_step
 
 _GAUSS = np.polynomial.legendre.leggauss(4)
@@ -80,57 +80,75 @@ def bilinear_points(X: np.ndarray, st: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-@numba.njit(cache=True)
-def _weights_and_derivative(x, X, xi0, eta0, derivative, dN):
+def _weights_and_derivative(x, X, xi0, eta0, derivative, dN, N):
     """Clamped shape values at x's closest point on X, and (if asked) their derivative.
 
     The derivative with respect to x (3) and the facet's nodes (12) follows from the
     projection's condition ``F = [(x - p) . X,xi, (x - p) . X,eta] = 0`` (implicit
     function theorem: ``dxi/dz = -(dF/dxi)^-1 dF/dz``); a coordinate clamped at the
-    facet's edge does not move. Written into ``dN`` (4, 15).
+    facet's edge does not move. The values go into ``N`` (4,), the derivative into
+    ``dN`` (4, 15); returns the unclamped coordinates. No temporary arrays (it runs for
+    every point of every pair at every evaluation): the point, the tangents and ``dF``
+    are scalars, summed in the order of :func:`~forming.contact.slidekernels.frame`.
     """
     xi, eta = project_quad(x, X, xi0, eta0)
     cx, ce = max(-1.0, min(1.0, xi)), max(-1.0, min(1.0, eta))
-    N = shape(cx, ce)
+    Nt = shape_tuple(cx, ce)
+    for a in range(4):
+        N[a] = Nt[a]
     if not derivative:
-        return N, xi, eta
+        return xi, eta
     dN[:] = 0.0
-    p, t1, t2, t12 = frame(X, cx, ce)
-    r = x - p
-    a11 = _dot(t1, t1)
-    a22 = _dot(t2, t2)
-    a12 = _dot(t1, t2) - _dot(r, t12)
+    dxi_b = (-0.25 * (1 - ce), 0.25 * (1 - ce), 0.25 * (1 + ce), -0.25 * (1 + ce))
+    deta_b = (-0.25 * (1 - cx), -0.25 * (1 + cx), 0.25 * (1 + cx), 0.25 * (1 - cx))
+    cross = (0.25, -0.25, 0.25, -0.25)
+    p0 = p1 = p2 = 0.0
+    t10 = t11 = t12_ = 0.0
+    t20 = t21 = t22 = 0.0
+    c0 = c1 = c2 = 0.0
+    for a in range(4):
+        p0 += Nt[a] * X[a, 0]
+        t10 += dxi_b[a] * X[a, 0]
+        t20 += deta_b[a] * X[a, 0]
+        c0 += cross[a] * X[a, 0]
+        p1 += Nt[a] * X[a, 1]
+        t11 += dxi_b[a] * X[a, 1]
+        t21 += deta_b[a] * X[a, 1]
+        c1 += cross[a] * X[a, 1]
+        p2 += Nt[a] * X[a, 2]
+        t12_ += dxi_b[a] * X[a, 2]
+        t22 += deta_b[a] * X[a, 2]
+        c2 += cross[a] * X[a, 2]
+    r = (x[0] - p0, x[1] - p1, x[2] - p2)
+    t1 = (t10, t11, t12_)
+    t2 = (t20, t21, t22)
+    a11 = t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]
+    a22 = t2[0] * t2[0] + t2[1] * t2[1] + t2[2] * t2[2]
+    a12 = (t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2]) - (r[0] * c0 + r[1] * c1
+                                                              + r[2] * c2)
     det = a11 * a22 - a12 * a12
     if det <= 0.0:
-        return N, xi, eta
-    dF = np.zeros((2, 15))  # dF/dz: x, then node b's coordinates
-    dxi_b = np.array([-0.25 * (1 - ce), 0.25 * (1 - ce), 0.25 * (1 + ce), -0.25 * (1 + ce)])
-    deta_b = np.array([-0.25 * (1 - cx), -0.25 * (1 + cx), 0.25 * (1 + cx), 0.25 * (1 - cx)])
-    for j in range(3):
-        dF[0, j] = t1[j]
-        dF[1, j] = t2[j]
-    for b in range(4):
-        for j in range(3):
-            dF[0, 3 + 3 * b + j] = -N[b] * t1[j] + r[j] * dxi_b[b]
-            dF[1, 3 + 3 * b + j] = -N[b] * t2[j] + r[j] * deta_b[b]
+        return xi, eta
     free_xi = abs(xi) <= 1.0
     free_eta = abs(eta) <= 1.0
-    for c in range(15):
+    for c in range(15):  # dF/dz column c: x, then node b's coordinates
+        if c < 3:
+            f0, f1 = t1[c], t2[c]
+        else:
+            b, j = (c - 3) // 3, (c - 3) % 3
+            f0 = -Nt[b] * t1[j] + r[j] * dxi_b[b]
+            f1 = -Nt[b] * t2[j] + r[j] * deta_b[b]
         dxi, deta = 0.0, 0.0
         if free_xi and free_eta:
-            dxi = (a22 * dF[0, c] - a12 * dF[1, c]) / det
-            deta = (a11 * dF[1, c] - a12 * dF[0, c]) / det
+            dxi = (a22 * f0 - a12 * f1) / det
+            deta = (a11 * f1 - a12 * f0) / det
         elif free_xi:
-            dxi = dF[0, c] / a11
+            dxi = f0 / a11
         elif free_eta:
-            deta = dF[1, c] / a22
+            deta = f1 / a22
         for a in range(4):
             dN[a, c] = dxi_b[a] * dxi + deta_b[a] * deta
-    return N, xi, eta
+    return xi, eta
 
 
 @numba.njit(cache=True)
@@ -153,10 +171,13 @@ def spread(x, offsets, phi, which, Xk, xi, W, dW, derivative):
     if derivative:
         dW[:] = 0.0
     dN = np.zeros((4, 15))
+    N = np.empty(4)
+    xq = np.empty(3)
     for q in range(offsets.shape[0]):
         k = which[q]
-        N, a0, b0 = _weights_and_derivative(x + offsets[q], Xk[k], xi[q, 0], xi[q, 1],
-                                            derivative, dN)
+        for j in range(3):
+            xq[j] = x[j] + offsets[q, j]
+        a0, b0 = _weights_and_derivative(xq, Xk[k], xi[q, 0], xi[q, 1], derivative, dN, N)
         xi[q, 0], xi[q, 1] = a0, b0
         for a in range(4):
             W[k, a] += phi[q] * N[a]
@@ -172,9 +193,13 @@ def follow(points, facets, xm, rings, facet, xi):
     Up to four one-ring walks per point (a point may cross more than one facet when
     the master mesh is finer than the slave's); the point stays on the best facet found.
     """
+    X = np.empty((4, 3))
     for q in range(points.shape[0]):
         x = points[q]
-        a, b = project_quad(x, xm[facets[facet[q]]], xi[q, 0], xi[q, 1])
+        for a in range(4):
+            for j in range(3):
+                X[a, j] = xm[facets[facet[q], a], j]
+        a, b = project_quad(x, X, xi[q, 0], xi[q, 1])
         if abs(a) <= 1.0 and abs(b) <= 1.0:  # still over its facet
             xi[q, 0], xi[q, 1] = a, b
             continue

@@ -55,9 +55,9 @@ Modules:
       plastic state, no return mapping).
 
 Caching: numba's on-disk cache of a function is invalidated when the file that
-defines it changes, not when a function it calls from another module does. After
-editing one of these modules, clear the cache (``NUMBA_CACHE_DIR``, or the
-``__pycache__`` folders) before trusting cached callers in the other modules.
+defines it changes, not when a function it calls from another module does. The
+package therefore caches under one folder per digest of its sources
+(:mod:`forming.kernelcache`): an edit anywhere starts a fresh cache.
 """
 
 from __future__ import annotations
