@@ -46,8 +46,9 @@ def _timed(name: str, fn):
 def _install() -> None:
     """Wrap the module functions sliding.py calls and the methods of its classes."""
     for name in ("jacobian_all", "residual_all", "pair_all", "search_all", "node_normals",
-                 "distinct_facets"):
-        setattr(sliding, name, _timed(name, getattr(sliding, name)))
+                 "distinct_facets", "jacobian_blocks", "add_blocks"):
+        if hasattr(sliding, name):  # (an older revision has no add_blocks)
+            setattr(sliding, name, _timed(name, getattr(sliding, name)))
     for cls, names in ((sliding.SlidingTerm, ("add_jacobian", "add_residual", "_pair")),
                        (tributary.AreaTransfer, ("follow", "repair"))):
         for name in names:

@@ -30,7 +30,11 @@ def simulate(job: Job, out: Path, case: str, parameters: dict,
         The summary (as written to ``summary.json``).
     """
     with signals.catch_stops():
+        sim = None
         try:
-            return Simulation(job, Path(out), case, parameters, assignments, restart).run()
+            sim = Simulation(job, Path(out), case, parameters, assignments, restart)
+            return sim.run()
         finally:
+            if sim is not None:  # collective: every rank here, whatever the garbage collector
+                sim.solver.close()
             signals.clear()

@@ -177,3 +177,26 @@ def test_default_response_is_the_recorded_reaction_against_the_travel():
     job = Job(scene=block_scene(honeycomb_core("isotropic")))
     r = job.response_or_default()
     assert (r.column, r.travel, r.scale) == ("reaction_top_z_N", 2.0, 1.0)
+
+
+def test_simulate_destroys_the_petsc_solver_itself(tmp_path, monkeypatch):
+    """``simulate`` destroys the Newton solver at its end, not the garbage collector.
+
+    PETSc's destruction of a parallel solver is collective (MUMPS ends its instance on
+    every rank). Left to the collector, a rank that holds the simulation in a reference
+    cycle frees it later than the others, which then wait for ever: a 2-rank
+    demonstrator run hung after writing its summary (2026-11-28). A failure means the
+    solver outlives ``simulate`` and its destruction is again left to chance.
+    """
+    made = []
+    real_init = Simulation.__init__
+
+    def keep(self, *args, **kwargs):
+        real_init(self, *args, **kwargs)
+        made.append(self)
+
+    monkeypatch.setattr(Simulation, "__init__", keep)
+    summary = simulate(_crushing(), tmp_path, "core_crushing", {})
+    assert summary["status"] == "completed"
+    problem = made[0].solver.problem
+    assert problem.solver.handle == 0 and problem.A.handle == 0 and problem.b.handle == 0

@@ -123,17 +123,6 @@ def normal_gap(x, X, xi, eta):
 
 
 @numba.njit(cache=True)
-def smooth_normal(nn, xi, eta):
-    """The nodal normals ``nn`` (4, 3) interpolated at (xi, eta), normalised."""
-    N = shape(xi, eta)
-    n = np.zeros(3)
-    for a in range(4):
-        for j in range(3):
-            n[j] += N[a] * nn[a, j]
-    return n / math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
-
-
-@numba.njit(cache=True)
 def ramp(trial, width):
     """The pressure for an augmented trial pressure: ``max(0, trial)``, or smoothed.
 

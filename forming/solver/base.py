@@ -114,3 +114,11 @@ class Solver(Protocol):
 
     def warnings(self) -> list[str]:
         """What a user should know about the run (collective)."""
+
+    def close(self) -> None:
+        """Release what the ranks hold together, on every rank at the same point.
+
+        A PETSc solver's destruction is collective (MUMPS ends its instance on all
+        ranks). Left to garbage collection, one rank may free it at once and another
+        only in a reference cycle's later collection: the first then waits for ever.
+        """

@@ -470,8 +470,7 @@ class ExplicitSolver:
         ``us_per_element_increment``: wall time of the time integration (the intervals'
         solves) per element of every body and per increment [us].
         """
-        n_el = self.comm.allreduce(sum(st.body.n_local_cells for st in self.states),
-                                   op=MPI.SUM)
+        n_el = self.comm.allreduce(sum(st.body.n_local_cells for st in self.states))
         out = {"time_steps": self.time_steps, "stable_time_step_s": self.dt,
                "loading_time_s": self.options.loading_time,
                "assembly_s": self.comm.allreduce(self.assembly_seconds) / self.comm.size,
@@ -495,5 +494,7 @@ class ExplicitSolver:
 
     def warnings(self) -> list[str]:
         """A run that is not quasi-static, that added much mass or hourglassed."""
-        return run_warnings(self.ledger, self.options, self.mass_added_fraction,
-                            MASS_ADDED_LIMIT)
+        return run_warnings(self.ledger, self.options, self.mass_added_fraction, MASS_ADDED_LIMIT)
+
+    def close(self) -> None:
+        """Nothing: no PETSc solver (the element loops and contacts are its own)."""

@@ -457,3 +457,10 @@ class ImplicitSolver:
     def warnings(self) -> list[str]:
         """None."""
         return []
+
+    def close(self) -> None:
+        """Destroy the Newton solver, its matrix and vectors (collective; see Solver)."""
+        problem = self.problem
+        for obj in (problem.solver, problem.A, problem.P_mat, problem.b, problem.x):
+            if obj is not None:
+                obj.destroy()
