@@ -71,6 +71,9 @@ class Job:
         limits: ``(metric, bound)`` pairs: the run's answer is valid only if each metric
             stays at or below its bound (e.g. a virtual test's curve error); reported in
             ``summary.json`` ``validity`` with the solver's own checks.
+        cautions: What the case knows from its own settings that limits its answer
+            (e.g. a setting that makes the path depend on round-off); logged and written
+            with the run's warnings in ``summary.json``.
     """
 
     scene: Scene
@@ -86,6 +89,7 @@ class Job:
     explicit: ExplicitOptions = field(default_factory=ExplicitOptions)
     response: Response | None = None
     limits: tuple[tuple[str, float], ...] = ()
+    cautions: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.field_every < 1:

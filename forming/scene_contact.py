@@ -39,6 +39,14 @@ class Contact:
         friction: Coulomb coefficient (0: frictionless, no tangential terms compiled).
         penalty: Augmented-Lagrangian penalty [N/mm^3]; default 10 E / h from the body's
             largest elastic stiffness and the smallest surface edge.
+        penalty_scale: Factor on the default penalty where multipliers enforce the
+            contact (implicit runs): the multipliers converge faster with a stiffer
+            penalty, by about the factor ``K / (K + penalty)`` per update, ``K`` the
+            stiffness behind the surface. A fabric skin's ``E`` (through its thickness)
+            is far below what holds it against a tool (its tows, the crushed core), so
+            its updates crawl (docs/theory.md, section 16). A penalty-only contact
+            (explicit runs), whose penalty sets the penetration and the time step, keeps
+            the default; a given ``penalty`` is taken as it is.
         tolerance: Admissible penetration [mm]; default 1% of the smallest surface edge
             or of the body's thickness, whichever is smaller.
         stick: How a sticking node is held: ``"augmented"`` (a stick constraint with
@@ -56,9 +64,13 @@ class Contact:
     penalty: float | None = None
     tolerance: float | None = None
     stick: Literal["augmented", "elastic_slip"] = "augmented"
+    penalty_scale: float = 1.0
 
     def __post_init__(self) -> None:
         _nonnegative(self, "contact", ("friction",))
+        if not (math.isfinite(self.penalty_scale) and self.penalty_scale > 0):
+            raise InputError("contact.penalty_scale",
+                             f"must be positive, got {self.penalty_scale!r}")
         if self.stick not in ("augmented", "elastic_slip"):
             raise InputError("contact.stick", f"must be 'augmented' or 'elastic_slip', "
                              f"got {self.stick!r}")

@@ -435,7 +435,7 @@ class Simulation:
         job, model, comm, rec = self.job, self.model, self.comm, self.recorder
         metrics, notes = _numbers(self._hook("metrics", job.metrics, rec, model) or {})
         metrics |= self.solver.metrics()
-        warnings = (model.warnings() + self.solver.warnings()
+        warnings = (list(job.cautions) + model.warnings() + self.solver.warnings()
                     + self.springs.warnings(self.progress.where))
         for w in warnings:
             log.warning("%s", w)

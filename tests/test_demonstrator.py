@@ -333,8 +333,9 @@ def test_demonstrator_closes_the_tools_and_reaches_the_cavity(tmp_path):
 def test_the_blank_is_held_along_the_closing_direction_from_the_first_step(tmp_path):
     """The default start, on the 60 mm mesh: after the first load step a rigid lift of
     the whole blank (every body's nodes moved 1 mm along z) meets the tools' contact
-    stiffness: e.K.e above 100 N/mm (3,004 N/mm measured; 4e-11 N/mm, none, with the upper
-    tool starting 1 mm above the blank). A failure means the blank floats again before
+    stiffness: e.K.e above 100 N/mm (30,040 N/mm measured, 3,004 with
+    ``tool_penalty_scale=1``; 4e-11 N/mm, none, with the upper tool starting 1 mm above
+    the blank). A failure means the blank floats again before
     the upper tool touches it: nothing then sets its height but the round-off of the
     linear solves, which differs between partitions and between runs on several ranks,
     and serial and parallel runs part from the first steps (docs/theory.md, section 16)."""
@@ -345,7 +346,8 @@ def test_the_blank_is_held_along_the_closing_direction_from_the_first_step(tmp_p
 
     case = load_case("demonstrator")
     sim = Simulation(case.build(case.Params(element_size=60.0)), tmp_path, case="demonstrator")
-    assert sim.step().converged
+    # the first attempt, at the initial step size, may be cut back
+    assert any(sim.step().converged for _ in range(8)), "no first step in 8 attempts"
     model, A = sim.model, sim.solver.problem.A
     free = free_mask(model, A.getLocalSize()[1])
     lift = block_vector(model, {n: lambda X: np.tile([0.0, 0.0, 1.0], (len(X), 1))
@@ -354,3 +356,17 @@ def test_the_blank_is_held_along_the_closing_direction_from_the_first_step(tmp_p
     x.array[:] = lift
     A.mult(x, y)
     assert float(lift @ (y.array * free)) > 100.0
+
+
+def test_a_floating_blank_is_flagged_in_the_run_s_warnings():
+    """With ``clearance > 0`` the blank starts below the open upper tool, held by nothing
+    along z: its height, and from there the step path, follow round-off (the test above).
+    The job carries a caution that the run writes to summary.json's warnings; the
+    default start carries none. A failure means a user can float the blank and get
+    rank-dependent answers without being told."""
+    from forming.case import load_case
+
+    case = load_case("demonstrator")
+    assert case.build(case.Params(element_size=60.0)).cautions == ()
+    (caution,) = case.build(case.Params(element_size=60.0, clearance=1.0)).cautions
+    assert "clearance = 1 mm" in caution and "round-off" in caution

@@ -117,9 +117,16 @@ def test_case_parameters_out_of_range(tmp_path):
 
     for case, assignment, field in (("core_crushing", "gap=-1", "gap"),
                                     ("picture_frame", "shear_max_deg=85", "shear_max_deg"),
-                                    ("bias_extension", "aspect=1.5", "aspect")):
+                                    ("bias_extension", "aspect=1.5", "aspect"),
+                                    ("demonstrator", "tool_penalty_scale=0",
+                                     "tool_penalty_scale")):
         with pytest.raises(InputError, match=rf"^--set {field}: "):
             run_case(case, tmp_path / case, [assignment])
+    from forming.scene_contact import Contact
+
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(InputError, match=r"^contact.penalty_scale: "):
+            Contact("skin", "top", "tool", penalty_scale=bad)
     with pytest.raises(InputError, match=r"newton.force_rtol|solver.force_rtol"):
         NewtonOptions(force_rtol=-1.0)
     with pytest.raises(InputError, match=r"solver.blr_tolerance"):

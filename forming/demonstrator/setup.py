@@ -122,11 +122,12 @@ def _extreme_z(tool: SurfaceTool, blank: Outline, highest: bool) -> float:
 
 
 def matched_tools(part: Part, blank: Blank, friction: float, clearance: float,
-                  tolerance: float | None = None
+                  tolerance: float | None = None, penalty_scale: float = 1.0
                   ) -> tuple[tuple[Tool, ...], tuple[Contact, ...], float]:
     """The lower (fixed) and upper (closing) tools and their contacts with the skins.
 
     ``tolerance``: the contacts' admissible penetration [mm] (None: the contact's default).
+    ``penalty_scale``: the contacts' :attr:`~forming.scene_contact.Contact.penalty_scale`.
 
     Returns:
         Tools, contacts and the closing stroke [mm].
@@ -147,7 +148,9 @@ def matched_tools(part: Part, blank: Blank, friction: float, clearance: float,
     upper = SurfaceTool(part.upper, scale=part.scale, translate=(0.0, 0.0, shift + stroke))
     tools = (Tool("lower", lower), Tool("upper", upper, z=Linear(-stroke)))
     contacts = (Contact(blank.upper, blank.face(blank.upper, "top"), "upper",
-                        friction=friction, stick="elastic_slip", tolerance=tolerance),
+                        friction=friction, stick="elastic_slip", tolerance=tolerance,
+                        penalty_scale=penalty_scale),
                 Contact(blank.lower, blank.face(blank.lower, "bottom"), "lower",
-                        friction=friction, stick="elastic_slip", tolerance=tolerance))
+                        friction=friction, stick="elastic_slip", tolerance=tolerance,
+                        penalty_scale=penalty_scale))
     return tools, contacts, stroke
