@@ -40,11 +40,12 @@ class Contact:
         penalty: Augmented-Lagrangian penalty [N/mm^3]; default 10 E / h from the body's
             largest elastic stiffness and the smallest surface edge.
         penalty_scale: Factor on the default penalty where multipliers enforce the
-            contact (implicit runs): the multipliers converge faster with a stiffer
-            penalty, by about the factor ``K / (K + penalty)`` per update, ``K`` the
-            stiffness behind the surface. A fabric skin's ``E`` (through its thickness)
-            is far below what holds it against a tool (its tows, the crushed core), so
-            its updates crawl (docs/theory.md, section 16). A penalty-only contact
+            contact (implicit runs). A multiplier update leaves about
+            ``K / (K + penalty)`` of a penetration, ``K`` the stiffness behind the
+            surface, so a stiffer penalty needs fewer updates. A fabric skin's ``E``
+            (through its thickness) is far below what holds it against a tool (its
+            tows, the crushed core), so its updates crawl (docs/theory.md, section 16).
+            A penalty-only contact
             (explicit runs), whose penalty sets the penetration and the time step, keeps
             the default; a given ``penalty`` is taken as it is.
         tolerance: Admissible penetration [mm]; default 1% of the smallest surface edge
