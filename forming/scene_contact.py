@@ -45,9 +45,8 @@ class Contact:
             surface, so a stiffer penalty needs fewer updates. A fabric skin's ``E``
             (through its thickness) is far below what holds it against a tool (its
             tows, the crushed core), so its updates crawl (docs/theory.md, section 16).
-            A penalty-only contact
-            (explicit runs), whose penalty sets the penetration and the time step, keeps
-            the default; a given ``penalty`` is taken as it is.
+            A penalty-only contact (explicit runs), whose penalty sets the penetration
+            and the time step, keeps the default; a given ``penalty`` is taken as it is.
         tolerance: Admissible penetration [mm]; default 1% of the smallest surface edge
             or of the body's thickness, whichever is smaller.
         stick: How a sticking node is held: ``"augmented"`` (a stick constraint with
