@@ -35,10 +35,19 @@ FADE = 0.3  # beyond the master's edge a node's force fades to zero over this pa
 
 
 @numba.njit(cache=True)
+def shape_tuple(xi, eta):
+    """Bilinear shape functions at (xi, eta), nodes (-1,-1), (1,-1), (1,1), (-1,1).
+
+    A tuple (no array: for the per-pair kernels); :func:`shape` is the array.
+    """
+    return (0.25 * (1 - xi) * (1 - eta), 0.25 * (1 + xi) * (1 - eta),
+            0.25 * (1 + xi) * (1 + eta), 0.25 * (1 - xi) * (1 + eta))
+
+
+@numba.njit(cache=True)
 def shape(xi, eta):
-    """Bilinear shape functions at (xi, eta), nodes (-1,-1), (1,-1), (1,1), (-1,1)."""
-    return np.array([0.25 * (1 - xi) * (1 - eta), 0.25 * (1 + xi) * (1 - eta),
-                     0.25 * (1 + xi) * (1 + eta), 0.25 * (1 - xi) * (1 + eta)])
+    """:func:`shape_tuple` as an array."""
+    return np.array(shape_tuple(xi, eta))
 
 
 @numba.njit(cache=True)
@@ -136,13 +145,6 @@ def ramp(trial, width):
     if trial <= -0.5 * width:
         return 0.0
     return (trial + 0.5 * width) ** 2 / (2.0 * width)
-
-
-@numba.njit(cache=True)
-def shape_tuple(xi, eta):
-    """:func:`shape` as a tuple (no array: for the per-pair kernels)."""
-    return (0.25 * (1 - xi) * (1 - eta), 0.25 * (1 + xi) * (1 - eta),
-            0.25 * (1 + xi) * (1 + eta), 0.25 * (1 - xi) * (1 + eta))
 
 
 @numba.njit(cache=True)
