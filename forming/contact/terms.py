@@ -89,8 +89,8 @@ class ContactTerm:
         h = surface_edge_min(msh, facets)
         self.tolerance = spec.tolerance or 0.01 * min(h, thickness)
         stiffness = body.contact_stiffness()
-        self.penalty = spec.penalty or default_penalty(stiffness, h, thickness, penalty_only) * (
-            1.0 if penalty_only else spec.penalty_scale)
+        default = default_penalty(stiffness, h, thickness, penalty_only)
+        self.penalty = spec.penalty or (default if penalty_only else default * spec.penalty_scale)
         self.friction = spec.friction
         # elastic slip of the penalty stick law (None: augmented stick constraint)
         self.elastic_slip = 0.005 * h if spec.stick == "elastic_slip" else None
