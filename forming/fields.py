@@ -57,12 +57,15 @@ class FieldSeries:
 
         step = step % len(self.times)
         with adios2.FileReader(str(self.path)) as f:
-            n_blocks = len(f.all_blocks_info(name)[step])
+            # a rank that holds none of a body's nodes writes an empty block, which
+            # adios2 cannot read: skip it
+            blocks = [int(b["BlockID"]) for b in f.all_blocks_info(name)[step]
+                      if 0 not in _count(b)]
             sel = [step, 1]
             parts = [np.atleast_2d(f.read(name, step_selection=sel, block_id=b).T).T
-                     for b in range(n_blocks)]
+                     for b in blocks]
             ids = [f.read("vtkOriginalPointIds", step_selection=sel, block_id=b).ravel()
-                   for b in range(n_blocks)]
+                   for b in blocks]
         return np.concatenate(parts), np.concatenate(ids)
 
     def points(self, step: int = -1) -> np.ndarray:
@@ -83,3 +86,8 @@ class FieldSeries:
         v, ids = self._read(name, step)
         _, first = np.unique(ids, return_index=True)
         return v[first]
+
+
+def _count(block: dict) -> tuple[int, ...]:
+    """The extents of one block of a variable, from adios2's block info."""
+    return tuple(int(c) for c in block["Count"].split(",") if c.strip())
