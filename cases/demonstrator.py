@@ -68,6 +68,7 @@ class Params:
     core_layers: int = 2  # core elements through the thickness
     skin_refinement: int = 1  # skin elements per core element in plan
     skin_stabilisation: float = 1e-3  # skin-core stabilising spring, fraction of the penalty
+    skin_elastic_slip: float = 0.005  # skin-core stick slip at the limit, of the edge (implicit)
     clearance: float = 0.0  # gap between the open upper tool and the blank [mm]; > 0 floats it
     contact_tolerance: float | None = None  # skin-tool penetration allowed [mm]; none: 1% ply
     tool_penalty_scale: float = 10.0  # skin-tool penalty over the default 10 E / h (implicit)
@@ -81,7 +82,7 @@ class Params:
 
 def build(p: Params) -> Job:
     require(p, positive=("tool_scale", "core_thickness", "ply_thickness", "element_size",
-                         "bridging_gap", "tool_penalty_scale"),
+                         "bridging_gap", "tool_penalty_scale", "skin_elastic_slip"),
             nonnegative=("tool_friction", "skin_friction", "clearance", "skin_stabilisation"))
     require(p, positive=("contact_tolerance",) if p.contact_tolerance is not None else ())
     if len(p.fibre_angles) != 2:
@@ -90,7 +91,7 @@ def build(p: Params) -> Job:
                                   p.core_thickness + 2 * p.plies * p.ply_thickness)
     fabric = NonCrimpFabric(thickness=p.ply_thickness, fibre_angles_deg=tuple(p.fibre_angles))
     skins = Skins(fabric, p.plies, p.skin_friction, p.skin_stabilisation, 0.1, "finite",
-                  p.skin_refinement)
+                  p.skin_refinement, elastic_slip=p.skin_elastic_slip)
     b = outline_blank(part.quarter, p.core_thickness, p.element_size, p.core_layers,
                       honeycomb_core("isotropic", curve=p.curve, viscosity=p.viscosity), skins)
     tools, contacts, stroke = setup.matched_tools(part, b, p.tool_friction, p.clearance,

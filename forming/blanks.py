@@ -109,6 +109,8 @@ class Skins:
             in-plane direction.
         transfer: With finite sliding, how a skin node's force reaches the core
             (:class:`~forming.scene.Sliding`: ``"area"`` or ``"point"``).
+        elastic_slip: With finite sliding, the implicit stick law's slip at the friction
+            limit, as a fraction of the shortest facet edge (:class:`~forming.scene.Sliding`).
     """
 
     fabric: NonCrimpFabric
@@ -119,6 +121,7 @@ class Skins:
     contact: Literal["small", "finite"] = "small"
     refinement: int = 1
     transfer: Literal["area", "point"] = "area"
+    elastic_slip: float = 0.005
 
     def __post_init__(self) -> None:
         if self.contact not in ("small", "finite"):
@@ -188,7 +191,8 @@ def _sliding_blank(mesh: MeshData, thickness: float, core, skins: Skins) -> Blan
     sliding = tuple(Sliding(side, "core", f"core_{side}", f"skin_{side}",
                             f"skin_{side}_{'top' if side == 'bottom' else 'bottom'}",
                             friction=skins.friction, transfer=skins.transfer,
-                            stabilisation=skins.stabilisation, smoothing=skins.smoothing)
+                            stabilisation=skins.stabilisation, smoothing=skins.smoothing,
+                            elastic_slip=skins.elastic_slip)
                     for side in ("bottom", "top"))
     return Blank(mesh, bodies, (), thickness + 2 * t, 0.0, "skin_top", "skin_bottom",
                  sliding=sliding, prefixed=True)

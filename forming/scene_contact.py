@@ -134,8 +134,8 @@ class Sliding:
     """Finite-sliding contact between two bodies meshed apart (non-matching surfaces).
 
     The slave region's nodes meet the master region's facets wherever they slide to
-    (:mod:`forming.contact.sliding`); friction is Coulomb with elastic slip (0.5% of the
-    shortest facet edge).
+    (:mod:`forming.contact.sliding`); friction is Coulomb with elastic slip (in implicit
+    runs; an explicit run holds a sticking node with the penalty).
 
     Attributes:
         name: Name used in history columns (``sliding_<name>_x_N``).
@@ -160,6 +160,9 @@ class Sliding:
             pressure), as a fraction of the pressure the penetration tolerance stands for
             (penalty x tolerance); 0: the sharp ramp. At zero gap it leaves an eighth of
             the width; below a gap of half the width over the penalty, nothing.
+        elastic_slip: The slip of a sticking node at the friction limit in implicit runs,
+            as a fraction of the shortest facet edge (the stick stiffness is ``mu p /
+            s_el``): smaller is closer to Coulomb's law, and Newton's path stiffer.
     """
 
     name: str
@@ -173,6 +176,7 @@ class Sliding:
     transfer: Literal["area", "point"] = "area"
     stabilisation: float = 0.0
     smoothing: float = 0.0
+    elastic_slip: float = 0.005
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():
@@ -183,7 +187,7 @@ class Sliding:
         if self.transfer not in ("area", "point"):
             raise InputError("sliding.transfer", f"must be 'area' or 'point', got "
                              f"{self.transfer!r}")
-        _positive_if_given(self, "sliding", ("penalty", "tolerance"))
+        _positive_if_given(self, "sliding", ("penalty", "tolerance", "elastic_slip"))
 
 
 @dataclass(frozen=True)

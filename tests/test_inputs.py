@@ -119,7 +119,9 @@ def test_case_parameters_out_of_range(tmp_path):
                                     ("picture_frame", "shear_max_deg=85", "shear_max_deg"),
                                     ("bias_extension", "aspect=1.5", "aspect"),
                                     ("demonstrator", "tool_penalty_scale=0",
-                                     "tool_penalty_scale")):
+                                     "tool_penalty_scale"),
+                                    ("demonstrator", "skin_elastic_slip=-1e-3",
+                                     "skin_elastic_slip")):
         with pytest.raises(InputError, match=rf"^--set {field}: "):
             run_case(case, tmp_path / case, [assignment])
     from forming.scene_contact import Contact
@@ -127,6 +129,11 @@ def test_case_parameters_out_of_range(tmp_path):
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(InputError, match=r"^contact.penalty_scale: "):
             Contact("skin", "top", "tool", penalty_scale=bad)
+    from forming.scene_contact import Sliding
+
+    for bad in (0.0, -1.0, float("inf")):
+        with pytest.raises(InputError, match=r"^sliding.elastic_slip: "):
+            Sliding("s", "core", "core_top", "skin", "skin_bottom", elastic_slip=bad)
     with pytest.raises(InputError, match=r"newton.force_rtol|solver.force_rtol"):
         NewtonOptions(force_rtol=-1.0)
     with pytest.raises(InputError, match=r"solver.blr_tolerance"):

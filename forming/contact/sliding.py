@@ -108,7 +108,7 @@ class SlidingTerm:
         self.tolerance = spec.tolerance or 0.01 * min(h, thickness)
         self.penalty = spec.penalty or 10.0 * master.contact_stiffness() / h
         self.friction = spec.friction
-        self.elastic_slip = 0.005 * h
+        self.elastic_slip = spec.elastic_slip * h
         self.master = Surface(master, m_facets, layout, spec.master)
         self._master_body = master
         self.slave = slave
