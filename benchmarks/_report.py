@@ -9,10 +9,36 @@ import re
 import subprocess
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 PERFORMANCE_MD = REPO / "docs" / "performance.md"
+
+
+@dataclass(frozen=True)
+class Run:
+    """One run of a benchmark's study: its label, folder name and ``--set`` settings."""
+
+    label: str
+    slug: str
+    sets: tuple[str, ...] = ()
+
+
+def read_summary(folder: Path) -> dict:
+    """A run's ``summary.json``, or {} where there is none (not run, or killed early)."""
+    try:
+        return json.loads((folder / "summary.json").read_text())
+    except (OSError, json.JSONDecodeError):
+        return {}
+
+
+def final_shape(folder: Path) -> dict:
+    """A run's ``final_shape.npz`` (each body's reference nodes and displacements)."""
+    import numpy as np
+
+    with np.load(folder / "final_shape.npz") as data:
+        return {k: data[k] for k in data.files}
 
 
 def run_case_process(case: str, out: Path, ranks: int = 1, sets: tuple[str, ...] = (),

@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _report import REPO, machine, study_runs, update_section
+from _report import REPO, machine, read_summary, study_runs, update_section
 
 VALIDATION_MD = REPO / "docs" / "validation.md"
 PERFORMANCE_MD = REPO / "docs" / "performance.md"
@@ -37,20 +37,13 @@ FRICTIONS = (0.23, 0.1)
 PAPER_SHEAR = (-30.0, 12.0)  # the paper's predicted range for its part [deg]
 
 
-def _summary(folder: Path) -> dict:
-    try:
-        return json.loads((folder / "summary.json").read_text())
-    except (OSError, json.JSONDecodeError):
-        return {}
-
-
 def _friction_runs(run: bool) -> dict[float, dict]:
     vary = {"tool_friction": FRICTIONS}
     if run:
         study_runs("demonstrator", vary, OUT / "friction", ranks=2)
     from forming.study import folder_name
 
-    return {mu: _summary(OUT / "friction" / "runs" / folder_name({"tool_friction": str(mu)}))
+    return {mu: read_summary(OUT / "friction" / "runs" / folder_name({"tool_friction": str(mu)}))
             | {"folder": str(OUT / "friction" / "runs"
                              / folder_name({"tool_friction": str(mu)}))}
             for mu in FRICTIONS}
@@ -62,7 +55,7 @@ def _serial_run(run: bool) -> dict:
     from forming.study import folder_name
 
     folder = OUT / "serial" / "runs" / folder_name({"tool_friction": str(FRICTIONS[0])})
-    return _summary(folder) | {"folder": str(folder)}
+    return read_summary(folder) | {"folder": str(folder)}
 
 
 def _optimise(run: bool) -> dict:

@@ -31,13 +31,11 @@ cores from nothing).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from _report import REPO, machine, run_case_process, update_section
+from _report import REPO, Run, final_shape, machine, read_summary, run_case_process, update_section
 
 sys.path.insert(0, str(REPO))
 from forming.compare import shape_differences  # noqa: E402
@@ -45,19 +43,11 @@ from forming.fields import FieldSeries  # noqa: E402
 
 VALIDATION_MD = REPO / "docs" / "validation.md"
 THICKNESS = 20.0  # the core's [mm]: the compare's reference length
+PLY = 0.4  # the case's ply thickness [mm]
 MESH = ("element_size=60",)
 REFERENCE = "implicit_spring1e-4_slip5e-4"
 SEPARATION_AT = 0.4  # load parameter: the blank bent, nothing pressed yet
 PLAN_AT = 0.5  # load parameter: before the tools press the skins
-
-
-@dataclass(frozen=True)
-class Run:
-    """One run of the study: its label, folder name and settings."""
-
-    label: str
-    slug: str
-    sets: tuple[str, ...] = ()
 
 
 RUNS = (
@@ -75,38 +65,29 @@ RUNS = (
 )
 
 
-def _summary(folder: Path) -> dict:
-    try:
-        return json.loads((folder / "summary.json").read_text())
-    except (OSError, json.JSONDecodeError):
-        return {}
-
-
 def _run(run: Run, work: Path) -> dict:
     folder = work / run.slug
-    if _summary(folder).get("status") != "completed":
+    if read_summary(folder).get("status") != "completed":
         run_case_process("demonstrator", folder, sets=(*MESH, *run.sets), allow_failure=True)
-    return _summary(folder)
+    return read_summary(folder)
 
 
-def _shape(folder: Path) -> dict[str, np.ndarray]:
-    with np.load(folder / "final_shape.npz") as data:
-        return {k: data[k] for k in data.files}
+def part_nodes(reference: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Each body's nodes that end inside the trim line in the reference run: the part
+    (outside it is the scrap, the blank's overhang that no tool holds)."""
+    from forming.demonstrator.setup import Part, inside_trim
+
+    part = Part.from_params(None, None, 1.0, None, None, THICKNESS + 2 * PLY)
+    return {k[:-2]: inside_trim(part, (reference[k] + reference[f"{k[:-2]}_u"])[:, :2])
+            for k in reference if k.endswith("_X") and f"{k[:-2]}_u" in reference}
 
 
-def inside_trim(reference: dict[str, np.ndarray], other: dict[str, np.ndarray]) -> float:
-    """RMS distance over the nodes that end inside the trim line in the reference run (the
-    part; outside it is the scrap: the blank's overhang, which no tool holds), over the
-    core's thickness."""
-    from forming.demonstrator.setup import Part
-    from forming.demonstrator.setup import inside_trim as inside
-
-    part = Part.from_params(None, None, 1.0, None, None, THICKNESS + 0.8)
-    d = []
-    for key in (k for k in reference if k.endswith("_X") and f"{k[:-2]}_u" in reference):
-        name = key[:-2]
-        keep = inside(part, (reference[key] + reference[f"{name}_u"])[:, :2])
-        d.append(np.linalg.norm(other[f"{name}_u"] - reference[f"{name}_u"], axis=1)[keep])
+def rms_on(keep: dict[str, np.ndarray], reference: dict[str, np.ndarray],
+           other: dict[str, np.ndarray]) -> float:
+    """RMS nodal distance between two final shapes over the nodes ``keep``, over the core's
+    thickness."""
+    d = [np.linalg.norm(other[f"{n}_u"] - reference[f"{n}_u"], axis=1)[k]
+         for n, k in keep.items()]
     return float(np.sqrt(np.mean(np.concatenate(d) ** 2)) / THICKNESS)
 
 
@@ -159,13 +140,15 @@ HEADER = ("| run | RMS / thickness | inside the trim line | along z [mm] | in pl
           "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 
 
-def _row(run: Run, summary: dict, work: Path) -> str:
+def _row(run: Run, summary: dict, work: Path, ref_shape: dict[str, np.ndarray],
+         part: dict[str, np.ndarray]) -> str:
     if summary.get("status") != "completed":
         return f"| {run.label} | {summary.get('status', 'not run')} |" + " |" * 12
     folder, ref = work / run.slug, work / REFERENCE
     m, t = summary["metrics"], summary["timing"]
-    f = shape_differences(_shape(ref), _shape(folder), THICKNESS)[0]
-    trim = inside_trim(_shape(ref), _shape(folder))
+    shape = final_shape(folder)
+    f = shape_differences(ref_shape, shape, THICKNESS)[0]
+    trim = rms_on(part, ref_shape, shape)
     bottom, top = separation(folder, SEPARATION_AT)
     work_done = t.get("newton_iterations") or t.get("time_steps", "")
     return (f"| {run.label} | {f['shape_rms_diff_rel_thickness']:.2%} | {trim:.2%} | "
@@ -180,6 +163,8 @@ def _row(run: Run, summary: dict, work: Path) -> str:
 def report(work: Path, summaries: dict[str, dict]) -> str:
     """The ``demonstrator_draping`` section from the runs in ``work``."""
     where = work.relative_to(REPO) if work.is_relative_to(REPO) else work
+    ref_shape = final_shape(work / REFERENCE)
+    part = part_nodes(ref_shape)
     return "\n".join([
         f"Written by `python benchmarks/demonstrator_draping.py --write` (runs in `{where}`, "
         f"reused from there as they are; {machine()}). `cases/demonstrator.py --set "
@@ -190,7 +175,7 @@ def report(work: Path, summaries: dict[str, dict]) -> str:
         "the bottom skin's mean z below the core's bottom face and the top skin's above "
         "its top face (the implicit skins start on the core). 'Skins in plan at 50%': both "
         "skins' RMS in-plane distance from the reference at half the load.",
-        "", HEADER, *(_row(r, summaries[r.slug], work) for r in RUNS), ""])
+        "", HEADER, *(_row(r, summaries[r.slug], work, ref_shape, part) for r in RUNS), ""])
 
 
 def main() -> None:

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from _report import REPO, machine, run_case_process, update_section
+from _report import REPO, Run, final_shape, machine, read_summary, run_case_process, update_section
 
 sys.path.insert(0, str(REPO))
 from forming.compare import shape_differences  # noqa: E402
@@ -43,15 +43,6 @@ from forming.compare import shape_differences  # noqa: E402
 VALIDATION_MD = REPO / "docs" / "validation.md"
 THICKNESS = 20.0  # the core's [mm]: the compare's reference length
 FORMER = ("clearance=1",)  # the study ran with the upper tool 1 mm above the blank
-
-
-@dataclass(frozen=True)
-class Run:
-    """One run of the study: its label, folder name and settings."""
-
-    label: str
-    slug: str
-    sets: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -89,31 +80,19 @@ GROUPS = (
 )
 
 
-def _summary(folder: Path) -> dict:
-    try:
-        return json.loads((folder / "summary.json").read_text())
-    except (OSError, json.JSONDecodeError):
-        return {}
-
-
 def _run(group: Group, run: Run, work: Path) -> dict:
     folder = work / group.folder / run.slug
-    if _summary(folder).get("status") != "completed":
+    if read_summary(folder).get("status") != "completed":
         run_case_process("demonstrator", folder, ranks=group.ranks,
                          sets=(*group.mesh, *run.sets), allow_failure=True)
-    return _summary(folder)
-
-
-def _shape(folder: Path) -> dict[str, np.ndarray]:
-    with np.load(folder / "final_shape.npz") as data:
-        return {k: data[k] for k in data.files}
+    return read_summary(folder)
 
 
 def _row(run: Run, summary: dict, ref: dict[str, np.ndarray], folder: Path) -> str:
     if summary.get("status") != "completed":
         return f"| {run.label} | {summary.get('status', 'not run')} |" + " |" * 10
     m, t = summary["metrics"], summary["timing"]
-    f = shape_differences(ref, _shape(folder), THICKNESS)[0]
+    f = shape_differences(ref, final_shape(folder), THICKNESS)[0]
     stiffened = t.get("spring_stiffened_steps", 0)
     return (f"| {run.label} | {f['shape_rms_diff_rel_thickness']:.2%} | "
             f"{f['shape_rms_diff_mm_z']:.3f} | {f['shape_rms_diff_mm_plan']:.3f} | "
@@ -124,7 +103,7 @@ def _row(run: Run, summary: dict, ref: dict[str, np.ndarray], folder: Path) -> s
 
 
 def _pair(folder: Path, a: str, b: str) -> str:
-    f = shape_differences(_shape(folder / a), _shape(folder / b), THICKNESS)[0]
+    f = shape_differences(final_shape(folder / a), final_shape(folder / b), THICKNESS)[0]
     return (f"{f['shape_rms_diff_rel_thickness']:.2%} (along z {f['shape_rms_diff_mm_z']:.3f} "
             f"mm, in plan {f['shape_rms_diff_mm_plan']:.3f} mm)")
 
@@ -165,7 +144,7 @@ def report(work: Path, summaries: dict[tuple[str, str], dict]) -> str:
              "§16)."]
     for g in GROUPS:
         folder = work / g.folder
-        ref = _shape(folder / g.reference)
+        ref = final_shape(folder / g.reference)
         lines += ["", f"**{g.title}**", "", HEADER,
                   *(_row(r, summaries[g.folder, r.slug], ref, folder / r.slug)
                     for r in g.runs), ""]
