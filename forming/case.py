@@ -309,7 +309,15 @@ def run_case(name: str, out: Path, assignments: list[str], build=None, params_cl
 
 
 def apply_petsc_args(extra: list[str]) -> None:
-    """Pass ``-option value`` pairs left on the command line to PETSc."""
+    """Pass ``-option value`` pairs left on the command line to PETSc.
+
+    PETSc's options take one dash; a word with two dashes that the parser did not know is
+    a mistyped option of ours (``--set-py``), refused before anything runs.
+    """
+    for key in extra:
+        if key.startswith("--"):
+            raise InputError("command line", f"unknown option {key!r} (see --help; PETSc "
+                             "options take one dash, as -forming_snes_rtol 1e-8)")
     from petsc4py import PETSc
 
     from forming import compat  # noqa: F401

@@ -59,3 +59,14 @@ def test_bad_input_names_what_the_user_typed_and_exits_2(tmp_path):
                            "--set", setting], timeout=60)
         assert proc.returncode == EXIT_CODES["input"], proc.stderr[-2000:]
         assert expected in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_a_mistyped_option_is_refused_not_passed_to_petsc(tmp_path):
+    """``--set-py`` (two dashes, unknown) is an input error naming it, exit code 2, before
+    any run; PETSc would have taken it silently as an option nobody reads."""
+    out = tmp_path / "x"
+    proc = run_python([*CLI, "run", "core_compression", "--out", str(out),
+                       "--set-py", "strain=0.1"], timeout=60)
+    assert proc.returncode == EXIT_CODES["input"], proc.stderr[-2000:]
+    assert "unknown option '--set-py'" in proc.stderr and "Traceback" not in proc.stderr
+    assert not (out / "history.csv").exists()
