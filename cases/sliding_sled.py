@@ -54,11 +54,12 @@ class Params:
     transfer: Literal["area", "point"] = "area"  # the master's load: tributary area or point
     stabilisation: float = 0.0  # weak spring on the fabric's motion within a step (x penalty)
     weight_first: float = 0.1  # load share that puts the weight on before the pull (0: at once)
+    elastic_slip: float = 0.005  # stick slip at the friction limit, of the facet edge (implicit)
 
 
 def scene(p: Params) -> Scene:
     """The core block, the fabric on it and the sliding contact between them."""
-    require(p, positive=("pressure", "core_element", "skin_cells", "max_step"),
+    require(p, positive=("pressure", "core_element", "skin_cells", "max_step", "elastic_slip"),
             nonnegative=("drag", "friction", "overlap", "stabilisation"))
     if not 0.0 <= p.weight_first < 1.0:
         raise InputError("--set weight_first", f"must lie in [0, 1), got {p.weight_first}")
@@ -85,7 +86,7 @@ def scene(p: Params) -> Scene:
         tractions=(Traction("skin", "skin_top", z=weight),),
         sliding=(Sliding("skin", "core", "core_top", "skin", "skin_bottom",
                          friction=p.friction, transfer=p.transfer,
-                         stabilisation=p.stabilisation),))
+                         stabilisation=p.stabilisation, elastic_slip=p.elastic_slip),))
 
 
 def build(p: Params) -> Job:

@@ -59,6 +59,30 @@ def test_large_slip_sled_keeps_the_friction_ratio(tmp_path):
     assert m["penetration_max_mm"] < 0.01 * 0.4
 
 
+def test_elastic_slip_sets_the_stick_compliance(tmp_path):
+    """The implicit stick law's slip at the friction limit is ``elastic_slip`` times the
+    shortest facet edge (4.8 mm: the fabric's 48 mm side over 10 elements), so the pull
+    per unit friction ratio while the fabric sticks grows by ``(s1 - s2) h / mu`` from
+    ``elastic_slip`` s2 = 5e-4 to s1 = 5e-3: 0.0415 mm. The structure's own compliance
+    (skin and core in shear, about 0.011 mm) is the same in both runs and cancels.
+    Measured 0.0419 (1.0%); tolerance 3%. A failure means the setting does not reach the
+    stick law, or reaches it with another length scale (the sled on an elastic skin,
+    pulled 0.012 mm after the weight: both runs stick over the first pull step)."""
+    compliance = []
+    for s_el in (0.005, 0.0005):
+        out = tmp_path / f"s{s_el}"
+        s = run_case("sliding_sled", out, ["drag=0.012", "skin=elastic", "max_step=0.1",
+                                           f"elastic_slip={s_el}"])
+        assert s["status"] == "completed", s["reason"]
+        h = history(out)
+        pull = 0.012 * np.clip((h["t"] - 0.1) / 0.9, 0.0, None)
+        ratio = -h["sliding_skin_x_N"] / np.where(h["t"] > 0, h["sliding_skin_z_N"], 1.0)
+        first, second = np.flatnonzero(h["t"] > 0.1 + 1e-9)[:2]  # the first two pull rows
+        compliance.append((pull[second] - pull[first]) / (ratio[second] - ratio[first]))
+    assert compliance[0] - compliance[1] == pytest.approx((0.005 - 0.0005) * 4.8 / MU,
+                                                          rel=0.03)
+
+
 def test_large_slip_sled_on_two_ranks_equals_serial(tmp_path):
     """The sled on two ranks (the master surface gathered on both, slave nodes split):
     the same forces as in serial (1e-6 relative), so nothing of the contact depends on
