@@ -338,14 +338,25 @@ def test_the_blank_is_held_along_the_closing_direction_from_the_first_step(tmp_p
     the blank). A failure means the blank floats again before
     the upper tool touches it: nothing then sets its height but the round-off of the
     linear solves, which differs between partitions and between runs on several ranks,
-    and serial and parallel runs part from the first steps (docs/theory.md, section 16)."""
+    and serial and parallel runs part from the first steps (docs/theory.md, section 16).
+
+    Before that, the tools' placement: the nearest node of the blank's top face is on the
+    upper tool, the nearest of its bottom face on the lower tool (1e-9 mm), as the
+    contacts see them. Placed by their surfaces' extreme vertices, the upper tool started
+    0.0166 mm above the nearest node (a facet's sag between nodes) and the lower 0.0027
+    mm below the blank, which floated in the first step with the weaker skin springs."""
     from helpers import block_vector, free_mask
 
     from forming.case import load_case
     from forming.simulation import Simulation
 
     case = load_case("demonstrator")
-    sim = Simulation(case.build(case.Params(element_size=60.0)), tmp_path, case="demonstrator")
+    job = case.build(case.Params(element_size=60.0))
+    x = job.scene.mesh.mesh.geometry.x
+    lower, upper = (t.shape for t in job.scene.tools)
+    assert abs(upper.gap_normal(x[np.isclose(x[:, 2], x[:, 2].max())])[0].min()) < 1e-9
+    assert abs(lower.gap_normal(x[np.isclose(x[:, 2], x[:, 2].min())])[0].min()) < 1e-9
+    sim = Simulation(job, tmp_path, case="demonstrator")
     # the first attempt, at the initial step size, may be cut back
     assert any(sim.step().converged for _ in range(8)), "no first step in 8 attempts"
     model, A = sim.model, sim.solver.problem.A
