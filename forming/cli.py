@@ -10,7 +10,7 @@ forming drape CASE [--tool NAME] [--out DIR] [--set KEY=VALUE ...] [--spacing D]
 forming study CASE --vary KEY=V1,V2,... [--vary ...] [--metric NAME ...] [--set KEY=VALUE ...]
                    [--reference finest|extrapolated|VALUE] [--jobs N] [--ranks R] [--drape]
                    --out DIR
-forming warmup [--part materials|solvers]   compile the numba kernels once (cold cache)
+forming warmup [--part materials|solvers|contact]   compile the numba kernels once (cold cache)
 forming --version
 """
 
@@ -341,8 +341,8 @@ def main(argv: list[str] | None = None) -> None:
     opt.add_argument("--quiet", action="store_true", help="warnings and errors only")
     warm = sub.add_parser("warmup", help="compile the numba kernels into NUMBA_CACHE_DIR once "
                                          "(before parallel runs or tests on a cold cache)")
-    warm.add_argument("--part", choices=("materials", "solvers"), default=None,
-                      help="one part only (two processes can share the work); default both")
+    warm.add_argument("--part", choices=("materials", "solvers", "contact"), default=None,
+                      help="one part only (processes can share the work); default all")
     args, extra = parser.parse_known_args(argv)
     if args.command == "warmup":
         if extra:

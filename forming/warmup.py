@@ -6,11 +6,12 @@ need, side by side: both ranks of an ``mpirun -n 2`` run, or both workers of the
 suite, compile the same kernels at once (the material kernels alone take about half a
 minute of a core). ``forming warmup`` compiles them once, through small models of the
 public API, so that every kernel is compiled for the argument types the runs pass. Its
-two parts are independent: ``--part materials`` (the point kernels of every solid
-material) and ``--part solvers`` (a block under a plate, implicit and explicit, fully
-and reduced-integrated, and a fracturing block), so two cores can share the work.
-Kernels it does not reach (self-contact, finite sliding, surface-mesh tools) still
-compile at their first call.
+three parts are independent: ``--part materials`` (the point kernels of every solid
+material), ``--part solvers`` (a block under a plate, implicit and explicit, fully and
+reduced-integrated, and a fracturing block) and ``--part contact`` (a fabric sliding on a
+block, finite sliding with a stabilising spring, under a tool given as a surface mesh,
+implicit and explicit), so the cores can share the work. Kernels it does not reach
+(self-contact) still compile at their first call.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import numpy as np
 
 log = logging.getLogger(__name__)
 
-PARTS = ("materials", "solvers")
+PARTS = ("materials", "solvers", "contact")
 
 
 def materials() -> None:
@@ -88,8 +89,47 @@ def solvers(folder: Path) -> None:
         simulate(job, folder / str(k), "warmup", {})
 
 
+def contact(folder: Path) -> None:
+    """A fabric sliding on a block under a sheet given as an STL file.
+
+    Finite sliding (area transfer, a stabilising spring) and a surface-mesh tool with the
+    elastic-slip stick law; implicit, then explicit. Outputs go into ``folder``.
+    """
+    import meshio
+
+    from forming.contact.surface import SurfaceTool
+    from forming.job import Job
+    from forming.materials.fabric import NonCrimpFabric
+    from forming.materials.library import honeycomb_core
+    from forming.mesh import Block, blocks
+    from forming.run import simulate
+    from forming.scene import Body, Contact, Displacement, Linear, Scene, Sliding, Tool
+    from forming.solver.options import ExplicitOptions
+    from forming.solver.stepping import StepControl
+
+    sheet = folder / "sheet.stl"
+    meshio.write(sheet, meshio.Mesh(np.array([[-10.0, -10.0, 0.0], [30.0, -10.0, 0.0],
+                                              [30.0, 30.0, 0.0], [-10.0, 30.0, 0.0]]),
+                                    [("triangle", np.array([[0, 2, 1], [0, 3, 2]]))]), binary=True)
+    mesh = blocks([Block("core", (20.0, 20.0, 4.0), (2, 2, 1)),
+                   Block("skin", (10.0, 10.0, 0.4), (3, 3, 1), origin=(5.0, 5.0, 4.0))])
+    tool = SurfaceTool(sheet, sheet=True, translate=(0.0, 0.0, 4.4))
+    scene = Scene("warmup", mesh, (Body("core", honeycomb_core(), region="core"),
+                                   Body("skin", NonCrimpFabric(thickness=0.4), region="skin")),
+                  displacements=(Displacement("core", "core_bottom", x=0.0, y=0.0, z=0.0),),
+                  tools=(Tool("press", tool, z=Linear(-0.02)),),
+                  contacts=(Contact("skin", "skin_top", "press", friction=0.2,
+                                    stick="elastic_slip"),),
+                  sliding=(Sliding("skin", "core", "core_top", "skin", "skin_bottom",
+                                   friction=0.5, stabilisation=1e-3),))
+    steps = StepControl(initial=0.5, max=0.5, min=0.5)
+    for k, solver in enumerate(("implicit", "explicit")):
+        job = Job(scene, steps=steps, solver=solver, explicit=ExplicitOptions(loading_time=2e-5))
+        simulate(job, folder / str(k), "warmup", {})
+
+
 def main(part: str | None = None) -> int:
-    """Compile the kernels of ``part`` (None: both parts, one after the other).
+    """Compile the kernels of ``part`` (None: every part, one after the other).
 
     The small models' progress and warnings are not logged, only what each part took.
     """
@@ -104,7 +144,7 @@ def main(part: str | None = None) -> int:
                 materials()
             else:
                 with tempfile.TemporaryDirectory() as tmp:
-                    solvers(Path(tmp))
+                    (solvers if name == "solvers" else contact)(Path(tmp))
             log.info("warmup: %s kernels ready in %.1f s", name, time.perf_counter() - t0)
     finally:
         package.setLevel(levels[0])
