@@ -163,7 +163,8 @@ def matched_tools(part: Part, blank: Blank, friction: float, clearance: float,
                          "reach down to the blank's top")
     # the vertices place the tools to within the sag of a tool facet between blank nodes;
     # the contacts see the nodes, so close the tools onto the nearest node of each face
-    # (an open gap of 0.014 mm left the blank floating in the first step: docs/theory.md, 16)
+    # (an open gap of 0.017 mm left the blank floating in the first step with the weaker
+    # skin springs: docs/theory.md, 16)
     # (a sloped facet: the normal gap shrinks less than the move, hence a few passes)
     for _ in range(4):
         gap = _node_gap(lower0, blank, blank.bottom, shift)
