@@ -305,6 +305,37 @@ def test_the_forming_map_is_the_core_mid_surface_of_a_sheared_edge():
     np.testing.assert_allclose(mid[0], ref_top[0] + [1.0, 0.0, -16.5], atol=1e-12)
 
 
+def test_one_report_measures_each_run_on_its_own_fields(monkeypatch):
+    """``forming compare`` builds one job, so one report, for its implicit and its
+    explicit run. Its measured faces (conformity gaps, core thickness, draw-in, the maps
+    and the forming map) are gathered once per run and load, and the metrics and
+    pictures hooks of one run share them. A failure means the explicit run is reported
+    with the implicit run's fields: on the 60 mm demonstrator the two runs' gaps,
+    thicknesses and draw-ins were equal to 16 digits, and their maps the same."""
+    from forming.demonstrator.report import Report
+
+    gathered = []
+
+    def gather(self, model, t):
+        gathered.append((model, t))
+        return {"fields": (model.name, t)}
+
+    monkeypatch.setattr(Report, "_gather", gather)
+    monkeypatch.setattr(Report, "_analyse", lambda self, g: {"metrics": g["fields"]})
+
+    class Run:
+        def __init__(self, name):
+            self.name = name
+
+    report = Report(None, None, 50.0, 0.5, 20.0)
+    implicit, explicit = Run("implicit"), Run("explicit")
+    assert report._measure(implicit, 1.0)["metrics"] == ("implicit", 1.0)
+    assert report._measure(implicit, 1.0)["metrics"] == ("implicit", 1.0)  # pictures
+    assert report._measure(explicit, 1.0)["metrics"] == ("explicit", 1.0)
+    assert report._measure(explicit, 0.5)["metrics"] == ("explicit", 0.5)
+    assert len(gathered) == 3
+
+
 @pytest.mark.slow
 def test_demonstrator_closes_the_tools_and_reaches_the_cavity(tmp_path):
     """The shipped part on the 60 mm mesh (the main job's), serial: the tools close, the

@@ -17,6 +17,7 @@ times four); maps show the whole part, mirrored.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -119,11 +120,19 @@ class Report:
         return out
 
     def _measure(self, model, t: float) -> dict:
-        """The analysis of the current state, once (collective; full on rank 0)."""
-        if "analysis" not in self._state:
+        """The analysis of ``model`` at load ``t``, once (collective; full on rank 0).
+
+        The metrics and pictures hooks share it. It is kept for one model and one load:
+        ``forming compare`` runs both solvers from one job (one report), and the explicit
+        run must not be shown the implicit run's fields.
+        """
+        st = self._state
+        held = st.get("model")
+        if held is None or held() is not model or st.get("measured_at") != t:
             g = self._gather(model, t)
-            self._state["analysis"] = self._analyse(g) if g is not None else None
-        return self._state["analysis"]
+            st |= {"model": weakref.ref(model), "measured_at": t,
+                   "analysis": self._analyse(g) if g is not None else None}
+        return st["analysis"]
 
     # -- the case's hooks -----------------------------------------------------------------
     def metrics(self, rec, model) -> dict:
