@@ -218,3 +218,23 @@ def test_an_inverted_element_is_reported_with_its_body_and_place():
     with pytest.raises(KernelFailure, match=r"in body 'core', the first in the cell at "
                                             r"\(7\.5, 7\.5, 7\.5\) mm"):
         body.update_material()
+
+
+def test_an_inverted_fabric_element_is_named_in_the_failed_step_s_reason():
+    """A fabric's stress is a UFL form with ``ln det F`` in it: an iterate that inverts a
+    point of a skin makes the residual NaN with no kernel to say why. The step's reason
+    then names the body and its smallest det F at the full rule's points. A failure
+    means such steps fail with a bare DIVERGED_FUNCTION_NANORINF again (most of the
+    demonstrator's cut-backs were these, docs/theory.md §16)."""
+    from forming.materials.fabric import NonCrimpFabric
+    from forming.model import Model
+    from forming.solver.implicit import ImplicitSolver
+
+    model = Model(block_scene(NonCrimpFabric(), cells=(2, 2, 2)))
+    body = model.bodies["core"]
+    x = body.V.tabulate_dof_coordinates()
+    u = body.u.x.array.reshape(-1, 3)
+    u[np.linalg.norm(x - [10.0, 10.0, 10.0], axis=1) < 1e-9, 2] = -12.0  # folded through
+    result = ImplicitSolver(model).solve()
+    assert not result.converged
+    assert "inverted elements (det F <= 0) in body 'core' (det F down to -0." in result.reason

@@ -197,7 +197,21 @@ class ImplicitSolver:
         else:
             assemble_residual(snes, x, b, **self._fctx)
         self.model.add_residual(b)
+        if self._failure is None and not np.isfinite(b.norm()):
+            self._failure = self._why_not_finite()
         self.assembly_seconds += time.perf_counter() - t0
+
+    def _why_not_finite(self) -> str:
+        """Why an assembled residual is not finite (collective).
+
+        A body whose stress is a UFL form (a fabric's ``ln det F``) has no kernel to
+        report an inverted point: its smallest ``det F`` names it.
+        """
+        bad = [f"{b.name!r} (det F down to {d:.3g})" for b in self._bodies
+               if (d := b.min_det_F()) <= 0.0]
+        if bad:
+            return "inverted elements (det F <= 0) in body " + ", ".join(bad)
+        return "a non-finite residual with no inverted element"
 
     def _jacobian(self, snes, x, A, P) -> None:
         t0 = time.perf_counter()
