@@ -194,7 +194,7 @@ class Simulation:
         if res.converged:
             before = stepper.state()
             self.model.commit()
-            stepper.accept(t_new, res.work)
+            stepper.accept(t_new, res.work if res.control_work is None else res.control_work)
             scale = self.record(res)
             if scale is None:  # the case's probe failed: back to the last recorded state
                 self.model.restore(state[0])

@@ -18,11 +18,22 @@ never reaches the minimum step is not touched. Each change is logged, the spring
 is a history column (``spring_scale``), and a run that used it says so in its warnings:
 its answer over the stiffened steps carries more of the springs' drag (the
 ``*_stabilisation_N`` columns).
+
+The drag is the springs' price: a spring stiff enough to carry Newton through a step
+also holds the skins back on every step (on the 60 mm demonstrator, 1e-3 of the penalty
+put the implicit answer 4.2% of the thickness from the explicit one, 1e-4 put it 2.0%;
+docs/validation.md), and a spring weak enough not to drag fails where the first is
+needed. A :class:`SpringRelease` takes both: once a step has converged, Newton solves it
+again from there with the springs at a fraction of what it converged with. Started from
+the converged state, that solve converges where a step begun with the weak spring need
+not; where it does not, the step keeps its first answer.
 """
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Protocol
 
 log = logging.getLogger(__name__)
@@ -33,6 +44,7 @@ class Sprung(Protocol):
 
     name: str
     has_spring: bool
+    spring_scale: float  # the scale last set
 
     def scale_spring(self, scale: float) -> None:
         """Set the spring to ``scale`` times its setting."""
@@ -133,3 +145,52 @@ class SpringEscalation:
                 f"setting) where the step could not be cut further; {self.stiffened_steps} "
                 "step(s) ran stiffened and carry more of the springs' drag (history: "
                 "spring_scale, *_stabilisation_N)"]
+
+
+class SpringRelease:
+    """The implicit solver's second solve of a converged step, with the springs relaxed.
+
+    Args:
+        pairs: The model's interface and sliding pairs; those with a spring take part.
+        fraction: The springs of the step's answer over those it converged with, in
+            (0, 1]; 1: no second solve.
+    """
+
+    def __init__(self, pairs: list, fraction: float):
+        self.pairs: list[Sprung] = [c for c in pairs if c.has_spring]
+        self.fraction = fraction
+        self.solves = 0
+        self.kept = 0
+
+    @property
+    def active(self) -> bool:
+        """Whether converged steps are solved again."""
+        return bool(self.pairs) and self.fraction < 1.0
+
+    @contextmanager
+    def relaxed(self) -> Iterator[None]:
+        """The springs at :attr:`fraction` of their present scale, inside the block."""
+        scales = [c.spring_scale for c in self.pairs]
+        try:
+            for c, s in zip(self.pairs, scales, strict=True):
+                c.scale_spring(s * self.fraction)
+            yield
+        finally:
+            for c, s in zip(self.pairs, scales, strict=True):
+                c.scale_spring(s)
+
+    def record(self, converged: bool, reason: str) -> bool:
+        """Count a second solve; returns ``converged`` (True: its answer is kept)."""
+        self.solves += 1
+        self.kept += int(converged)
+        if not converged:
+            log.debug("relaxed springs: no convergence (%s); the step keeps its answer",
+                      reason)
+        return converged
+
+    def summary(self) -> dict:
+        """What ``summary.json`` reports under ``timing`` (nothing when inactive)."""
+        if not self.active:
+            return {}
+        return {"spring_release": self.fraction, "spring_release_solves": self.solves,
+                "spring_release_kept": self.kept}

@@ -126,12 +126,14 @@ def test_spring_escalation_stiffens_holds_and_steps_back():
 
 
 def test_spring_escalation_settings_are_checked():
-    """A factor or limit below 1, or a hold below one step, is refused by its name."""
+    """A factor or limit below 1, a hold below one step, or a release fraction outside
+    (0, 1] is refused by its name."""
     from forming.errors import InputError
     from forming.solver.options import NewtonOptions
 
     for key, value in (("spring_escalation", 0.5), ("spring_escalation_max", float("nan")),
-                       ("spring_escalation_hold", 0)):
+                       ("spring_escalation_hold", 0), ("spring_release", 0.0),
+                       ("spring_release", 1.5), ("spring_release", float("nan"))):
         with pytest.raises(InputError, match=f"newton.{key}"):
             NewtonOptions(**{key: value})
 

@@ -204,7 +204,7 @@ class InterfaceTerm:
             self._stab = -self.stabilisation * step_jump
             traction = traction + self._stab
         self.traction = traction
-        self.has_spring = self.stabilisation is not None
+        self.has_spring, self.spring_scale = self.stabilisation is not None, 1.0
         # nodal values: assemble against the test function, divide by the nodal area
         w, wv = ufl.TestFunction(W), ufl.TestFunction(Wv)
         self._area = self._assemble(self._form(w("+") * dS))
@@ -434,6 +434,7 @@ class InterfaceTerm:
 
     def scale_spring(self, scale: float) -> None:
         """Set the stabilising spring to ``scale`` times its setting (forming.springs)."""
+        self.spring_scale = scale
         if self.stabilisation is not None:
             self.stabilisation.value = scale * self.spec.stabilisation * self.penalty
 

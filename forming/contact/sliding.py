@@ -146,7 +146,7 @@ class SlidingTerm:
         self.force = np.zeros((n, 3))  # force on each slave node [N]
         self.spring = np.zeros((n, 3))  # stabilising force on each slave node [N]
         self.kappa = spec.stabilisation * self.penalty
-        self.has_spring = self.kappa > 0.0
+        self.has_spring, self.spring_scale = self.kappa > 0.0, 1.0
         self.width = spec.smoothing * self.penalty * self.tolerance  # pressure ramp [MPa]
         # the master point each slave node starts on (its total slip is measured from it)
         self._start = np.zeros(n, dtype=np.int64)
@@ -415,7 +415,7 @@ class SlidingTerm:
 
     def scale_spring(self, scale: float) -> None:
         """Set the stabilising spring to ``scale`` times its setting (forming.springs)."""
-        self.kappa = scale * self.spec.stabilisation * self.penalty
+        self.kappa, self.spring_scale = scale * self.spec.stabilisation * self.penalty, scale
 
     def commit(self) -> None:
         """Accept the step: the touched master points and the shear become history."""

@@ -31,6 +31,9 @@ class StepResult:
         augmentations: Multiplier updates of the contact constraints (Uzawa passes).
         final: The step failed in a way a smaller step cannot cure: the run stops at
             the last converged state.
+        control_work: The work the step size is judged by, where it is not all of
+            ``work`` (the implicit solver's second solve with relaxed springs); None:
+            ``work``.
     """
 
     converged: bool
@@ -40,6 +43,7 @@ class StepResult:
     seconds: float = 0.0
     augmentations: int = 0
     final: bool = False
+    control_work: int | None = None
 
     @property
     def residual(self) -> float:

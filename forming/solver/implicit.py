@@ -5,18 +5,9 @@ from __future__ import annotations
 import itertools
 import logging
 import time
-import weakref
 
 import numpy as np
-from dolfinx import fem
-from dolfinx.fem.petsc import (
-    NonlinearProblem,
-    assemble_jacobian,
-    assemble_residual,
-    assemble_vector,
-    assign,
-    set_bc,
-)
+from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_residual, assign
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -25,46 +16,15 @@ from forming.errors import KernelFailure
 from forming.model import Model
 from forming.solver import linear
 from forming.solver.base import StepResult
+from forming.solver.callbacks import assemble_held_residual, weak
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
+from forming.springs import SpringRelease
 
 log = logging.getLogger(__name__)
 _ids = itertools.count()
 
 _REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
-
-
-def _assemble_held_residual(x: PETSc.Vec, b: PETSc.Vec, residual, bcs,
-                            _blocks=None, **_) -> None:
-    """DOLFINx's ``assemble_residual`` at an ``x`` that holds every prescribed value.
-
-    The Dirichlet lifting ``-J (g - x)`` is then exactly zero and is left out (it costs
-    an assembly of the Jacobian over every cell with a prescribed dof); the rest is the
-    same, so the vector is the same to the bit. ``x`` is already in the unknowns.
-    """
-    if _blocks is not None:
-        b.setAttr("_blocks", _blocks)
-        x.setAttr("_blocks", _blocks)
-    with b.localForm() as local:
-        local.set(0.0)
-    assemble_vector(b, residual)
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    if isinstance(residual, list | tuple):  # one form per body
-        set_bc(b, fem.bcs_by_block(fem.extract_function_spaces(residual), bcs), x0=x,
-               alpha=-1.0)
-    else:
-        set_bc(b, bcs, x0=x, alpha=-1.0)
-    b.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-
-
-def _weak(method):
-    """A function calling ``method`` through a weak reference to its object."""
-    ref = weakref.WeakMethod(method)
-
-    def call(*args):
-        return ref()(*args)
-
-    return call
 
 
 class ImplicitSolver:
@@ -135,12 +95,12 @@ class ImplicitSolver:
         # SNES keeps its callbacks where Python's garbage collector does not look: bound
         # methods would tie the solver (and its model, forms, functions and their MPI
         # communicators) into a cycle that is never freed
-        snes.setFunction(_weak(self._residual), self.problem.b)
-        snes.setJacobian(_weak(self._jacobian), self.problem.A, None)
-        snes.setMonitor(_weak(self._monitor))
+        snes.setFunction(weak(self._residual), self.problem.b)
+        snes.setJacobian(weak(self._jacobian), self.problem.A, None)
+        snes.setMonitor(weak(self._monitor))
         self._one_loop = self.options.multipliers == "newton" and bool(model.constraints)
         if self._one_loop:
-            snes.setConvergenceTest(_weak(self._converged))
+            snes.setConvergenceTest(weak(self._converged))
         self._fnorm0 = 0.0
         self._updates = 0
         linear.configure(self.problem.A, [b.V for b in bodies], self.options)
@@ -161,6 +121,8 @@ class ImplicitSolver:
         self._steps = 0
         self._last_work = 0
         self._user_atol = "snes_atol" not in opts  # set on the command line: keep it
+        self._release = SpringRelease([*model.interfaces, *model.sliding],
+                                      self.options.spring_release)
 
     # -- SNES callbacks --------------------------------------------------------------
     def _update_materials(self, x) -> str | None:
@@ -193,7 +155,7 @@ class ImplicitSolver:
             b.set(np.nan)
             return
         if self._dirichlet.held():
-            _assemble_held_residual(x, b, **self._fctx)
+            assemble_held_residual(x, b, **self._fctx)
         else:
             assemble_residual(snes, x, b, **self._fctx)
         self.model.add_residual(b)
@@ -370,6 +332,11 @@ class ImplicitSolver:
         else:
             ok, reason = False, (f"contact constraints not met after "
                                  f"{self.options.max_augmentations} augmentations")
+        first = iterations
+        if ok and self._release.active:
+            its, failure = self._release_step(uzawa)
+            iterations += its
+            ok, reason = failure is None, failure or reason
         for b in self._bodies:
             b.invalidate()
         final = False
@@ -378,7 +345,28 @@ class ImplicitSolver:
         self._work_total += iterations
         self._last_work = iterations
         return StepResult(ok, iterations, list(self._residuals), reason,
-                          time.perf_counter() - t0, self._updates, final)
+                          time.perf_counter() - t0, self._updates, final, first)
+
+    def _release_step(self, uzawa: bool) -> tuple[int, str | None]:
+        """Solve the converged step again with the springs relaxed (forming.springs).
+
+        Keeps that answer if it converges (and, with Uzawa, meets the constraints);
+        otherwise returns to the first, re-evaluated. Returns the Newton iterations and
+        why the step fails after all (an interrupt during the re-evaluation), or None.
+        """
+        # the displacements and the multipliers (which Newton updates with contact)
+        keep = self.model.snapshot(), list(self._residuals)
+        with self._release.relaxed():
+            ok, reason = self._newton()
+            ok = ok and not (uzawa and self._violation() > 1.0)
+        if not self._release.record(ok, reason):
+            self.model.restore(keep[0])
+            self._residuals, self._failure = keep[1], None
+            its = self.problem.solver.getIterationNumber()
+            assign(self._u, self.problem.x)  # the trial state of the answer kept
+            self._residual(self.problem.solver, self.problem.x, self.problem.b)
+            return its, self._failure
+        return self.problem.solver.getIterationNumber(), None
 
     def accept(self, force_scale: float) -> None:
         """Keep what the next step needs.
@@ -458,7 +446,7 @@ class ImplicitSolver:
                 "newton_split_s": split,
                 "per_iteration_ms": {k.removesuffix("_s"): 1e3 * v / its
                                      for k, v in split.items()},
-                **self.model.search_timing()}
+                **self.model.search_timing(), **self._release.summary()}
 
     def parameters(self) -> dict:
         """Nothing beyond the case's parameters."""

@@ -62,6 +62,12 @@ class NewtonOptions:
             their setting.
         spring_escalation_hold: Accepted steps after which a stiffened spring steps back
             down by one factor.
+        spring_release: Once a step has converged, Newton solves it again from there
+            with the stabilising springs at this fraction of what it converged with, and
+            the step keeps that answer if the solve converges (its first otherwise);
+            less of the springs' drag in the answer, at the cost of the second solve
+            (:class:`~forming.springs.SpringRelease`). 1 (default): no second solve. The
+            step size follows the first solve's iterations.
         zeros: The exact zeros of a several-body Jacobian: ``"drop"`` (default) inserts
             none, so the matrix keeps only entries that were ever non-zero (an
             interface's facet forms fill their element matrices mostly with zeros), or
@@ -83,6 +89,7 @@ class NewtonOptions:
     spring_escalation: float = 10.0
     spring_escalation_max: float = 100.0
     spring_escalation_hold: int = 10
+    spring_release: float = 1.0
     zeros: Literal["drop", "keep"] = "drop"
     petsc: dict[str, str] = field(default_factory=dict)
 
@@ -114,6 +121,9 @@ class NewtonOptions:
         if self.spring_escalation_hold < 1:
             raise InputError("newton.spring_escalation_hold",
                              f"must be >= 1, got {self.spring_escalation_hold}")
+        if not 0.0 < self.spring_release <= 1.0:
+            raise InputError("newton.spring_release",
+                             f"must be in (0, 1], got {self.spring_release!r}")
 
     def for_size(self, unknowns: int) -> NewtonOptions:
         """These settings with an ``auto`` linear solver chosen for ``unknowns``."""
