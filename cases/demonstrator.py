@@ -75,7 +75,7 @@ class Params:
     core_layers: int = 2  # core elements through the thickness
     skin_refinement: int = 1  # skin elements per core element in plan
     skin_stabilisation: float = 1e-3  # skin-core stabilising spring, fraction of the penalty
-    skin_elastic_slip: float = 0.0015  # skin-core stick slip at the limit, of the edge (implicit)
+    skin_elastic_slip: float = 1.5e-3  # skin-core stick slip at the limit, of the edge (implicit)
     clearance: float = 0.0  # gap between the open upper tool and the blank [mm]; > 0 floats it
     contact_tolerance: float | None = None  # skin-tool penetration allowed [mm]; none: 1% ply
     tool_penalty_scale: float = 10.0  # skin-tool penalty over the default 10 E / h (implicit)
