@@ -49,7 +49,10 @@ def test_core_crushing_full_stroke_two_ranks_matches_serial(tmp_path):
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("integration", ["full", "reduced"])
+# full integration on 2 ranks in the slow suite (26 s; CI time): its element loops are the
+# reduced ones' with 8 points, and the wedge-partition test runs them on 2 ranks in CI
+@pytest.mark.parametrize("integration", [pytest.param("full", marks=pytest.mark.slow),
+                                         "reduced"])
 def test_explicit_two_ranks_matches_serial(tmp_path, integration):
     """The explicit solver on 2 ranks: the same increments and the same forces.
 
