@@ -183,8 +183,8 @@ def main() -> None:
               "peak' has the three variants rerun, implicit and explicit.",
               "- Since this section: wall-to-wall contact, explicit meso runs, "
               "`meso_crushing`, `meso_hemisphere`, `forming calibrate` with the in-plane "
-              "moduli (sections below). Not yet: a larger patch for the RVE size in "
-              "compression (issue 20 stays open)."]
+              "moduli, and the patch size in compression with fracturing walls (1 x 1, "
+              "3 x 3 and 4 x 4 cells, explicit: 'Meso patch size'; sections below)."]
     update_section("meso", "\n".join(lines), VALIDATION_MD)
     cost = ["## Meso-scale cases", "",
             "Written by `python benchmarks/validate_meso.py` (docs/validation.md, meso "

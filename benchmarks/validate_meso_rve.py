@@ -1,0 +1,150 @@
+"""The meso patch's size (issue 20): is a 3 x 3 patch a representative volume?
+
+``meso_compression`` with fracturing walls that touch each other, bonded platens,
+explicit (the settings of docs/validation.md 'explicit runs, walls that touch': mass
+scaling to a 2e-7 s step, nominal strain rate 62.5/s), to 0.25 nominal strain, on
+patches of 1 x 1, 3 x 3 and 4 x 4 cells. A 10 mm core with 4 layers of elements keeps
+the default element size (the 20 mm core has 8) at half the cost. The patches are
+compared at one height; the 10 mm core's curve is not the 20 mm core's (its walls hold
+to a higher peak at a larger strain: docs/validation.md). Each curve is compared with
+the largest patch's: the RMS difference of the nominal stress over their common
+strains, over the largest patch's peak (the issue's target: within 5%), and the peak
+and plateau.
+
+Writes docs/validation.md ``meso_rve`` and docs/figures/meso_rve_stress_strain.png. The
+runs are in ``results/validate_meso_rve`` (a rerun reuses every run that ended; delete a
+folder to measure it again).
+
+Run: ``python benchmarks/validate_meso_rve.py`` (about 70 minutes on 2 cores: the
+larger patches on 2 ranks); ``--report`` writes the section from the runs already
+there without running any.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+from _report import REPO, machine, read_summary, run_case_process, update_section
+from validate_meso_explicit import commit, curve, status_text
+
+sys.path.insert(0, str(REPO))
+
+VALIDATION_MD = REPO / "docs" / "validation.md"
+FIGURES = REPO / "docs" / "figures"
+OUT = REPO / "results" / "validate_meso_rve"
+# (cells, ranks): the largest patch last (the reference)
+PATCHES = (("1,1", 1), ("3,3", 2), ("4,4", 2))
+SETS = ("height=10", "layers=4", "strain=0.25", "solver=explicit", "stabilisation=0",
+        "explicit.target_time_step=2e-7", "explicit.loading_time=0.004")
+TARGET = 0.05
+AFTER = (0.2, 0.25)  # the strains past every patch's peak: the stress's mean there
+
+
+class _Row:
+    """A run's folder and status, as :func:`status_text` and :func:`curve` read them."""
+
+    def __init__(self, folder: Path, summary: dict):
+        self.folder = folder
+        self.status = summary.get("status", "not run")
+        self.reason = summary.get("reason", "")
+
+
+def _rms_against(e, s, e_ref, s_ref) -> tuple[float, float]:
+    """RMS difference of ``s`` from the reference over their common strains, over the
+    reference's peak; and the common strain reached."""
+    top = min(e[-1], e_ref[-1])
+    grid = np.linspace(0.0, top, 400)
+    diff = np.interp(grid, e, s) - np.interp(grid, e_ref, s_ref)
+    return float(np.sqrt(np.mean(diff**2)) / np.max(s_ref)), float(top)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--report", action="store_true",
+                        help="write the section from the runs in the folder, run none")
+    args = parser.parse_args()
+    runs = []
+    for cells, ranks in PATCHES:
+        folder = OUT / f"cells-{cells.replace(',', '-')}"
+        summary = read_summary(folder)
+        if not args.report and summary.get("status") in (None, "running"):
+            summary = run_case_process("meso_compression", folder, ranks,
+                                       sets=(f"cells={cells}", *SETS), allow_failure=True)
+        runs.append((cells, ranks, folder, summary))
+    done = [r for r in runs if r[3].get("metrics")]
+    if not done:
+        sys.exit("no run of the study has metrics yet")
+    ref_cells, _, ref_folder, ref_summary = done[-1]
+    e_ref, s_ref = curve(_Row(ref_folder, ref_summary), ref_summary)
+    lines = ["## Meso patch size: is 3 x 3 cells a representative volume? (issue 20)", "",
+             "`meso_compression` with fracturing walls that touch each other, bonded "
+             "platens, explicit (`" + " ".join(f"--set {x}" for x in SETS) + "`): a 10 mm "
+             "core in 4 layers keeps the default element size at half the cost of the "
+             "20 mm one; the patches are compared at this one height. Each curve against "
+             "the largest patch's: RMS difference of the "
+             "nominal stress over their common strains, over that patch's peak (target "
+             f"{100 * TARGET:g}%). `python benchmarks/validate_meso_rve.py`; {machine()}.",
+             "",
+             "| cells | ranks | status | strain reached | elements | stress at 0.05 [MPa] "
+             f"| peak [MPa] at strain | mean stress {AFTER[0]:g}-{AFTER[1]:g} [MPa] "
+             "| RMS difference from "
+             f"{ref_cells.replace(',', ' x ')} | kinetic / internal at most | increments "
+             "| wall [s] | commit |",
+             "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    curves, verdicts = [], []
+    for cells, ranks, folder, summary in runs:
+        m = summary.get("metrics")
+        label = cells.replace(",", " x ")
+        if not m:
+            lines.append(f"| {label} | {ranks} | {status_text(_Row(folder, summary), summary)} |"
+                         + " |" * 10)
+            continue
+        e, s = curve(_Row(folder, summary), summary)
+        band = (e >= AFTER[0]) & (e <= AFTER[1])
+        after = float(s[band].mean()) if band.any() else float("nan")
+        rms, common = _rms_against(e, s, e_ref, s_ref)
+        timing = summary["timing"]
+        lines.append(
+            f"| {label} | {ranks} | {status_text(_Row(folder, summary), summary)} "
+            f"| {m['final_strain']:.4f} | {timing.get('elements', '')} "
+            f"| {np.interp(0.05, e, s):.3f} "
+            f"| {m['peak_stress_MPa']:.3f} at {m['peak_strain']:.4f} "
+            f"| {after:.3f} | {100 * rms:.1f}% (to {common:.3f}) "
+            f"| {100 * m['kinetic_to_internal_max']:.1f}% | {timing['time_steps']} "
+            f"| {timing['wall_s']:.0f} | {commit(summary)} |")
+        curves.append((e, s, f"{label} cells", "-"))
+        if folder == ref_folder:
+            ref_peak, ref_after = m["peak_stress_MPa"], after
+        else:
+            verdicts.append((label, rms, common, m["peak_stress_MPa"], after))
+    lines.append("")
+    for label, rms, common, peak, after in verdicts:
+        lines.append(f"- {label} against {ref_cells.replace(',', ' x ')}: RMS difference "
+                     f"{100 * rms:.1f}% of the peak over strains to {common:.3f} (target "
+                     f"{100 * TARGET:g}%: {'met' if rms <= TARGET else 'missed'}); peak "
+                     f"{100 * (peak / ref_peak - 1):+.1f}%, mean stress past it "
+                     f"{100 * (after / ref_after - 1):+.1f}%.")
+    mass = 1.0 + ref_summary["metrics"].get("mass_added_fraction", 0.0)
+    lines += ["- What this does not show: the curves end at 0.25, not at the 0.75 the issue "
+              "asks of the compression runs (the 1 x 1 run towards 0.75 in 'explicit runs, "
+              f"walls that touch' stopped short of it); with the mass scaled {mass:.1f}-fold "
+              "(the largest patch) to the 2e-7 s step, the kinetic energy exceeds the 5% of "
+              "the internal energy that counts as quasi-static where the kinetic column "
+              "says so; and the 10 mm core's walls hold to a higher peak at a larger strain "
+              "than the 20 mm core's ('fracturing cell walls', 1 x 1), so the answer is for "
+              "this height."]
+    import forming  # noqa: F401  (PETSc before dolfinx)
+    from forming.output import plot_curves
+
+    plot_curves(FIGURES / "meso_rve_stress_strain.png", curves, "nominal strain",
+                "nominal stress [MPa]", "Meso compression: patch size (explicit, bonded)")
+    lines += ["", "![meso patch size](figures/meso_rve_stress_strain.png)"]
+    update_section("meso_rve", "\n".join(lines), VALIDATION_MD)
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
