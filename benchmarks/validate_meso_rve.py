@@ -11,7 +11,8 @@ the largest patch's: the RMS difference of the nominal stress over their common
 strains, over the largest patch's peak (the issue's target: within 5%), and the peak
 and plateau.
 
-Writes docs/validation.md ``meso_rve`` and docs/figures/meso_rve_stress_strain.png. The
+Writes docs/validation.md ``meso_rve``, docs/performance.md ``meso_rve_cost`` and
+docs/figures/meso_rve_stress_strain.png. The
 runs are in ``results/validate_meso_rve`` (a rerun reuses every run that ended; delete a
 folder to measure it again).
 
@@ -33,6 +34,7 @@ from validate_meso_explicit import commit, curve, status_text
 sys.path.insert(0, str(REPO))
 
 VALIDATION_MD = REPO / "docs" / "validation.md"
+PERFORMANCE_MD = REPO / "docs" / "performance.md"
 FIGURES = REPO / "docs" / "figures"
 OUT = REPO / "results" / "validate_meso_rve"
 # (cells, ranks): the largest patch last (the reference)
@@ -144,6 +146,22 @@ def main() -> None:
     lines += ["", "![meso patch size](figures/meso_rve_stress_strain.png)"]
     update_section("meso_rve", "\n".join(lines), VALIDATION_MD)
     print("\n".join(lines))
+    cost = ["## `meso_compression`: patch size and cost", "",
+            "Written by `python benchmarks/validate_meso_rve.py` (docs/validation.md, 'Meso "
+            f"patch size', has the results); {machine()}. Explicit, fracturing walls that "
+            "touch, 10 mm core, to 0.25 strain; each run alone on the machine.", "",
+            "| cells | ranks | status | elements | increments | us per element and increment "
+            "| wall [s] |", "|---|---:|---|---:|---:|---:|---:|"]
+    for cells, ranks, folder, summary in runs:
+        t = summary.get("timing", {})
+        us = t.get("us_per_element_increment", float("nan"))
+        wall = t.get("wall_s", float("nan"))
+        cost.append(f"| {cells.replace(',', ' x ')} | {ranks} "
+                    f"| {status_text(_Row(folder, summary), summary)} "
+                    f"| {t.get('elements', '')} | {t.get('time_steps', '')} | {us:.1f} "
+                    f"| {wall:.0f} |")
+    update_section("meso_rve_cost", "\n".join(cost), PERFORMANCE_MD)
+    print("\n".join(cost))
 
 
 if __name__ == "__main__":
