@@ -49,8 +49,8 @@ def test_core_crushing_full_stroke_two_ranks_matches_serial(tmp_path):
 
 
 @pytest.mark.mpi
-# full integration on 2 ranks in the slow suite (26 s; CI time): its element loops are the
-# reduced ones' with 8 points, and the wedge-partition test runs them on 2 ranks in CI
+# full integration on 2 ranks in the slow suite (26 s; CI time): it runs the same compiled
+# element loop at 8 points, and the wedge-partition test runs that on 2 ranks in CI
 @pytest.mark.parametrize("integration", [pytest.param("full", marks=pytest.mark.slow),
                                          "reduced"])
 def test_explicit_two_ranks_matches_serial(tmp_path, integration):
