@@ -24,7 +24,8 @@ from forming.solver.options import ExplicitOptions
 DENSITY = 1e-9
 
 
-def _body(material, size=(30.0, 20.0, 10.0), cells=(3, 2, 2), distort=0.0, seed=0):
+def _body(material, size=(30.0, 20.0, 10.0), cells=(3, 2, 2), distort=0.0, seed=0,
+          degree=1):
     """A body on a box mesh; interior nodes moved by up to ``distort`` of a cell."""
     md = box(size, cells)
     if distort:
@@ -34,7 +35,7 @@ def _body(material, size=(30.0, 20.0, 10.0), cells=(3, 2, 2), distort=0.0, seed=
         inner = np.all((x > lo + 1e-9) & (x < hi - 1e-9), axis=1)
         rng = np.random.default_rng(seed)
         x[inner] += distort * h * rng.uniform(-1, 1, (int(inner.sum()), 3))
-    model = Model(Scene("hex", md, (Body("core", material),)))
+    model = Model(Scene("hex", md, (Body("core", material, degree=degree),)))
     return model.body
 
 
@@ -67,6 +68,49 @@ def test_full_integration_equals_the_residual_form(plastic):
     scale = np.max(np.abs(f_form.array[:n]))
     assert scale > 0
     assert np.max(np.abs(f_loop[:n] - f_form.array[:n])) < 1e-10 * scale
+
+
+@pytest.mark.parametrize("deletion", ["all", "first"])
+def test_quadratic_fracturing_walls_equal_the_residual_form(deletion):
+    """P2 hexahedra of a fracturing solid (the meso-scale walls) give the form's forces.
+
+    A distorted block stretched 12% along x with a random perturbation: its points pass
+    the fracture strain and damage; two points start eroded. The loops' forces and trial
+    history must equal those of the body's point update and assembled residual form (to
+    1e-10 of the largest force; the history to 1e-12), with either element-deletion rule.
+    A failure means the loops integrate the walls at other points or gradients than the
+    implicit solver's forms, or update their damage differently (crack bands, erosion).
+    """
+    from forming.materials.fracture import FracturingSolid
+
+    material = FracturingSolid(IsotropicElasticity(410.0, 0.21), fracture_energy=0.05,
+                               erosion=True, element_deletion=deletion, density=7.4e-10)
+    body = _body(material, size=(6.0, 2.0, 1.0), cells=(3, 1, 1), distort=0.2, degree=2)
+    ps = body.plastic
+    ps.ep[[3, 40], 4] = 1.0  # two eroded points (the second cell's first goes whole with
+    ps.ep_trial[:] = ps.ep  # "first")
+    loop = body.explicit_internal_force("reduced", 0.0, 7.4e-10)  # P2: always full
+    X = body.V.tabulate_dof_coordinates()
+    rng = np.random.default_rng(3)
+    u = np.zeros_like(X)
+    u[:, 0] = 0.12 * X[:, 0]
+    u += 0.01 * rng.uniform(-1, 1, X.shape)
+    f_loop = _forces(body, loop, u.ravel())
+    hist, kappa = ps.ep_trial.copy(), ps.evp_trial.copy()
+    assert np.count_nonzero(hist[:, 0] > 0) > 10  # damage grew at many points
+    assert loop.omega2 == 0.0  # P2: the step comes from the Gershgorin bound
+    ps.ep_trial[:] = ps.ep
+    body.invalidate()
+    body.update_material(want_tangent=False)
+    f_form = la.vector(body.V.dofmap.index_map, 3)
+    fem.assemble_vector(f_form.array, fem.form(body.residual(ufl.TestFunction(body.V))))
+    f_form.scatter_reverse(la.InsertMode.add)
+    n = body.V.dofmap.index_map.size_local * 3
+    scale = np.max(np.abs(f_form.array[:n]))
+    assert scale > 0
+    assert np.max(np.abs(f_loop[:n] - f_form.array[:n])) < 1e-10 * scale
+    assert np.allclose(hist, ps.ep_trial, rtol=0, atol=1e-12)
+    assert np.allclose(kappa, ps.evp_trial, rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("integration", ["full", "reduced"])

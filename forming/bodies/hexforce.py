@@ -1,4 +1,4 @@
-"""Internal forces of a solid of trilinear hexahedra for the explicit solver.
+"""Internal forces of a solid of hexahedra for the explicit solver.
 
 The explicit solver needs the internal force vector once per time increment and no
 tangent. :class:`HexInternalForce` computes it without forms: the compiled element
@@ -8,8 +8,10 @@ rank's owned cells, into a preallocated vector.
 
 Two integrations:
 
-- ``full``: the body's own quadrature points (2 x 2 x 2 Gauss), the same stress at the
-  same points as the forms of the implicit solver;
+- ``full``: the body's own quadrature points (2 x 2 x 2 Gauss on trilinear hexahedra,
+  3 x 3 x 3 on triquadratic ones), the same stress at the same points as the forms of
+  the implicit solver; the only one for triquadratic hexahedra (the meso-scale cell
+  walls, whose fracturing material's history is the body's own arrays);
 - ``reduced``: one point per element with the mean shape-function gradients of
   Flanagan and Belytschko (``b = (1/V) int grad N dV``, exact volume), as Abaqus'
   C3D8R, stabilised against its hourglass modes by the stiffness form of Flanagan and
@@ -49,20 +51,24 @@ _H = np.array([_XI[:, 0] * _XI[:, 1], _XI[:, 1] * _XI[:, 2], _XI[:, 2] * _XI[:, 
 _P1 = basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron, 1)
 
 
-def shape_gradients(x: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Reference gradients of the P1 shape functions and the Jacobians at ``points``.
+def shape_gradients(x: np.ndarray, points: np.ndarray,
+                    element=_P1) -> tuple[np.ndarray, np.ndarray]:
+    """Reference gradients of the shape functions and the Jacobians at ``points``.
+
+    Isoparametric: the Jacobian is that of the element's own nodes.
 
     Args:
-        x: (n_cells, 8, 3) node coordinates.
+        x: (n_cells, n_nodes, 3) node coordinates.
         points: (n_q, 3) points of the reference cell [0, 1]^3.
+        element: The basix element of the displacement (P1 by default).
 
     Returns:
-        (gradients (n_cells, n_q, 8, 3), det J (n_cells, n_q)).
+        (gradients (n_cells, n_q, n_nodes, 3), det J (n_cells, n_q)).
 
     Raises:
         InputError: An element is inverted or degenerate in the reference mesh.
     """
-    dxi = _P1.tabulate(1, points)[1:4, :, :, 0]  # (3, n_q, 8): d N_a / d xi_k
+    dxi = element.tabulate(1, points)[1:4, :, :, 0]  # (3, n_q, n): d N_a / d xi_k
     jac = np.einsum("cai,kqa->cqik", x, dxi)  # d x_i / d xi_k
     det = np.linalg.det(jac)
     if np.any(det <= 0.0):
@@ -127,23 +133,31 @@ class HexInternalForce:
     """Internal forces of one solid body on hexahedra, element by element.
 
     Args:
-        body: The solid (:class:`~forming.bodies.solid.SolidBody`) on P1 hexahedra.
-        integration: ``"full"`` or ``"reduced"`` (one point, hourglass control).
+        body: The solid (:class:`~forming.bodies.solid.SolidBody`) on P1 or P2
+            hexahedra.
+        integration: ``"full"`` or ``"reduced"`` (one point, hourglass control; P1 only).
         hourglass: Hourglass coefficient ``kappa`` of the reduced element (>= 0).
         density: Mass density [t/mm^3] (the element frequency bound).
         plastic_floor: Smallest tangent ratio of a plastically flowing element.
 
     Raises:
-        InputError: Not a P1 hexahedral body, a negative coefficient, or no density.
+        InputError: Not a hexahedral body of degree 1 or 2, reduced integration of a
+            degree-2 body, a negative coefficient, or no density.
     """
 
     def __init__(self, body, integration: str, hourglass: float, density: float,
                  plastic_floor: float = 0.3):
-        if body.mesh.topology.cell_name() != "hexahedron" or body.spec.degree != 1:
-            raise InputError(f"body.{body.name}", "the element loops need P1 hexahedra")
+        degree = body.spec.degree
+        if body.mesh.topology.cell_name() != "hexahedron" or degree not in (1, 2):
+            raise InputError(f"body.{body.name}",
+                             "the element loops need P1 or P2 hexahedra")
         if integration not in ("full", "reduced"):
             raise InputError("explicit.integration",
                              f"must be 'full' or 'reduced', got {integration!r}")
+        if integration == "reduced" and degree != 1:
+            raise InputError("explicit.integration",
+                             f"reduced integration is for P1 hexahedra; body {body.name!r} "
+                             f"has degree {degree}")
         if not hourglass >= 0.0:
             raise InputError("explicit.hourglass", f"must be >= 0, got {hourglass!r}")
         self.body = body
@@ -155,10 +169,14 @@ class HexInternalForce:
         qpts, qw = basix.make_quadrature(basix.CellType.hexahedron, body.quadrature_degree)
         if not np.allclose(qpts, pts):  # the body's points, in its order
             raise InputError(f"body.{body.name}", "quadrature points differ from basix's")
-        grads, det = shape_gradients(x, pts)
+        element = basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron,
+                                       degree, basix.LagrangeVariant.gll_warped)
+        grads, det = shape_gradients(x, pts, element)
         weights = det * qw
         modulus = float(np.max(np.diag(body.material.kernel_data().cel)))
-        self.wave2 = modulus / density
+        # the Flanagan-Belytschko bound is a trilinear element's: a P2 body's step comes
+        # from the Gershgorin bound alone, as through its forms
+        self.wave2 = modulus / density if degree == 1 else 0.0
         nc = self.nodes.shape[0]
         self.per_cell = 1 if self.reduced else len(qw)
         if self.reduced:
@@ -177,14 +195,21 @@ class HexInternalForce:
             self.gamma = np.zeros((0, 4, 8))
             self.k_hg = np.zeros((nc, 4, 3))
         n = nc * self.per_cell
+        self.fm = np.zeros((n, 9))
         self.cm = np.zeros((n, 9))
         self.detf = np.zeros(n)
         self.stress = np.zeros((n, 6))
-        plastic = body.plastic is not None
-        self.ep = np.zeros((n if plastic else 0, 6))
-        self.evp = np.zeros(n if plastic else 0)
-        self.ep_trial = self.ep.copy()
-        self.evp_trial = self.evp.copy()
+        ps = body.plastic
+        self.damaging = body.damaging
+        self._cells = body.band_geometry if self.damaging else None
+        if ps is not None and not self.reduced:  # the body's own points: its own arrays
+            self.ep, self.evp, self.ep_trial, self.evp_trial = (
+                ps.ep, ps.evp, ps.ep_trial, ps.evp_trial)
+        else:
+            self.ep = np.zeros((n if ps is not None else 0, 6))
+            self.evp = np.zeros(n if ps is not None else 0)
+            self.ep_trial = self.ep.copy()
+            self.evp_trial = self.evp.copy()
         # hourglass state per element: q_n, Q_n, trial q, trial Q; energy and new work
         self.hg = np.zeros((4, nc, 4, 3))
         self.hg_energy = np.zeros((2, nc))
@@ -223,25 +248,29 @@ class HexInternalForce:
         out.scatter_reverse(la.InsertMode.add)
         out.scatter_forward()
         if failure:
-            raise KernelFailure(f"{failure} in body {body.name!r}")
+            raise KernelFailure(failure)
 
     def _local_forces(self, u: np.ndarray, out: np.ndarray) -> str:
         """This rank's element forces into ``out``; what failed ("": nothing)."""
         body = self.body
-        right_cauchy_green(u, self.nodes, self.grads, self.cm, self.detf)
-        bad = int(np.count_nonzero(self.detf <= 0.0))
-        if bad:
-            return f"{bad} integration points: inverted elements (det F <= 0)"
+        right_cauchy_green(u, self.nodes, self.grads, self.fm, self.cm, self.detf)
+        inverted = self.detf <= 0.0
+        if self.damaging:  # an eroded point's shape is no longer checked
+            inverted &= body.active_points()
+        if inverted.any():
+            return (f"{int(np.count_nonzero(inverted))} integration points: inverted "
+                    f"elements (det F <= 0) in body {body.name!r}{body.locate(inverted)}")
         nbad, worst = point_stress(body.material, self.cm, self.ep, self.evp, self.stress,
                                    self.ep_trial, self.evp_trial, body.load_increment,
-                                   body.travel)
+                                   body.travel, self._cells)
         if nbad:
             what = "inverted elements" if worst == 1 else "return mapping failed"
-            return f"{nbad} integration points: {what}"
+            return f"{nbad} integration points: {what} in body {body.name!r}"
         if self.reduced and self._curve is not None:
             tangent_ratio(self.ep, self.evp, self.ep_trial, self.evp_trial, *self._curve,
                           self.modulus, self.plastic_floor, self.phi)
-        self.omega2 = nodal_forces(u, self.nodes, self.grads, self.weights, self.stress,
+        self.omega2 = nodal_forces(u, self.nodes, self.grads, self.weights, self.fm,
+                                   self.stress,
                                    self.gamma, self.k_hg, self.phi, self.hg,
                                    self.hg_energy[1], self.wave2, out)
         return ""
@@ -280,7 +309,8 @@ class HexInternalForce:
     def push(self) -> None:
         """Copy the converged plastic state to the body's points (outputs, snapshots)."""
         ps = self.body.plastic
-        if ps is None:
+        if ps is None or ps.ep is self.ep:  # (the body's own arrays: nothing to copy)
+            self.body.invalidate()
             return
         k = ps.ep.shape[0] // self.ep.shape[0] if self.ep.shape[0] else 1
         ps.ep[:] = np.repeat(self.ep, k, axis=0)
@@ -296,7 +326,7 @@ class HexInternalForce:
         """
         ps = self.body.plastic
         n = self.ep.shape[0]
-        if ps is None or n == 0:  # (a rank may own no cell of the body)
+        if ps is None or n == 0 or ps.ep is self.ep:  # (a rank may own no cell)
             return
         self.ep[:] = ps.ep.reshape(n, -1, 6).mean(axis=1)
         self.evp[:] = ps.evp.reshape(n, -1).mean(axis=1)

@@ -4,10 +4,14 @@ Two passes per evaluation, around the material's point kernel:
 
 1. :func:`right_cauchy_green` forms the deformation gradient ``F = I + sum_a u_a (x)
    g_a`` at every integration point from the nodal displacements and the reference
-   shape-function gradients ``g``, and writes ``C = F^T F`` (row-major) and ``det F``;
+   shape-function gradients ``g``, and writes ``F`` and ``C = F^T F`` (row-major) and
+   ``det F``;
 2. :func:`nodal_forces` adds ``w P g_a`` (``P = F S``, ``S`` the second Piola-Kirchhoff
    stress the point kernel returned) to every node of the element and, for one-point
    elements, the Flanagan-Belytschko hourglass forces ``k (gamma . u) gamma``.
+
+The loops take any number of nodes per element: the 8 of a trilinear hexahedron or
+the 27 of a triquadratic one (the meso-scale cell walls).
 
 The hourglass control is the stiffness form written in the reference configuration
 (total Lagrangian): the hourglass vectors ``gamma_alpha = h_alpha - (h_alpha . X) b``
@@ -50,13 +54,14 @@ def _gradient(u, nodes, grads, c, q):
 
 
 @numba.njit(cache=True)
-def right_cauchy_green(u, nodes, grads, cm, detf):
-    """``C = F^T F`` and ``det F`` at every integration point.
+def right_cauchy_green(u, nodes, grads, fm, cm, detf):
+    """``F``, ``C = F^T F`` and ``det F`` at every integration point.
 
     Args:
         u: Nodal displacements, 3 per node (owned and ghost nodes of the rank).
-        nodes: (n_cells, 8) node of each element corner.
-        grads: (n_cells, n_q, 8, 3) reference gradients of the shape functions.
+        nodes: (n_cells, n_nodes) node of each element node.
+        grads: (n_cells, n_q, n_nodes, 3) reference gradients of the shape functions.
+        fm: (n_cells * n_q, 9) output, row-major F (:func:`nodal_forces` reads it).
         cm: (n_cells * n_q, 9) output, row-major C.
         detf: (n_cells * n_q,) output.
     """
@@ -65,6 +70,9 @@ def right_cauchy_green(u, nodes, grads, cm, detf):
         for q in range(nq):
             f00, f01, f02, f10, f11, f12, f20, f21, f22 = _gradient(u, nodes, grads, c, q)
             p = c * nq + q
+            fm[p, 0], fm[p, 1], fm[p, 2] = f00, f01, f02
+            fm[p, 3], fm[p, 4], fm[p, 5] = f10, f11, f12
+            fm[p, 6], fm[p, 7], fm[p, 8] = f20, f21, f22
             cm[p, 0] = f00 * f00 + f10 * f10 + f20 * f20
             cm[p, 4] = f01 * f01 + f11 * f11 + f21 * f21
             cm[p, 8] = f02 * f02 + f12 * f12 + f22 * f22
@@ -76,7 +84,7 @@ def right_cauchy_green(u, nodes, grads, cm, detf):
 
 
 @numba.njit(cache=True)
-def nodal_forces(u, nodes, grads, weights, stress, gamma, k_hg, phi, hg, work, wave2, f):
+def nodal_forces(u, nodes, grads, weights, fm, stress, gamma, k_hg, phi, hg, work, wave2, f):
     """Add the element forces to ``f``; the hourglass work; the stiffest element.
 
     The hourglass forces follow the modes in rate form, ``Q = Q_n + phi k (q - q_n)``,
@@ -86,9 +94,10 @@ def nodal_forces(u, nodes, grads, weights, stress, gamma, k_hg, phi, hg, work, w
 
     Args:
         u: Nodal displacements, 3 per node.
-        nodes: (n_cells, 8) node of each element corner.
-        grads: (n_cells, n_q, 8, 3) reference gradients of the shape functions.
+        nodes: (n_cells, n_nodes) node of each element node.
+        grads: (n_cells, n_q, n_nodes, 3) reference gradients of the shape functions.
         weights: (n_cells, n_q) quadrature weight times reference volume.
+        fm: (n_cells * n_q, 9) deformation gradients (:func:`right_cauchy_green`'s).
         stress: (n_cells * n_q, 6) second Piola-Kirchhoff stress, Mandel.
         gamma: (n_cells, 4, 8) hourglass vectors (an empty first axis: none).
         k_hg: (n_cells, 4, 3) elastic hourglass stiffness of each mode and component
@@ -97,20 +106,24 @@ def nodal_forces(u, nodes, grads, weights, stress, gamma, k_hg, phi, hg, work, w
         hg: (4, n_cells, 4, 3) hourglass state: converged amplitudes ``q_n`` and
             forces ``Q_n``, then the new ``q`` and ``Q`` (written).
         work: (n_cells,) hourglass work of each element since ``q_n`` (written).
-        wave2: Squared elastic wave speed of the material, M / rho [mm^2/s^2].
+        wave2: Squared elastic wave speed of the material, M / rho [mm^2/s^2]; 0 skips
+            the frequency bound.
         f: Nodal forces, 3 per node (added to).
 
     Returns:
         The largest element frequency bound omega^2 [1/s^2]:
         ``8 c^2 |F^-T g|^2`` at the element's points, the Flanagan-Belytschko bound of a
-        one-point hexahedron in the current configuration.
+        one-point hexahedron in the current configuration (0 when ``wave2`` is 0).
     """
-    nc, nq = grads.shape[0], grads.shape[1]
+    nc, nq, nn = grads.shape[0], grads.shape[1], nodes.shape[1]
     omega2 = 0.0
     hourglass = gamma.shape[0] > 0
+    bound = wave2 > 0.0
     for c in range(nc):
         for q in range(nq):
-            f00, f01, f02, f10, f11, f12, f20, f21, f22 = _gradient(u, nodes, grads, c, q)
+            g9 = fm[c * nq + q]
+            f00, f01, f02, f10, f11, f12 = g9[0], g9[1], g9[2], g9[3], g9[4], g9[5]
+            f20, f21, f22 = g9[6], g9[7], g9[8]
             s = stress[c * nq + q]
             s00, s11, s22 = s[0], s[1], s[2]
             s12, s02, s01 = s[3] / _SQRT2, s[4] / _SQRT2, s[5] / _SQRT2
@@ -137,17 +150,18 @@ def nodal_forces(u, nodes, grads, weights, stress, gamma, k_hg, phi, hg, work, w
             c22 = f00 * f11 - f01 * f10
             det = f00 * c00 + f01 * c01 + f02 * c02
             gg = 0.0
-            for a in range(8):
+            for a in range(nn):
                 n = 3 * nodes[c, a]
                 g0, g1, g2 = grads[c, q, a, 0], grads[c, q, a, 1], grads[c, q, a, 2]
                 f[n] += p00 * g0 + p01 * g1 + p02 * g2
                 f[n + 1] += p10 * g0 + p11 * g1 + p12 * g2
                 f[n + 2] += p20 * g0 + p21 * g1 + p22 * g2
-                h0 = c00 * g0 + c01 * g1 + c02 * g2
-                h1 = c10 * g0 + c11 * g1 + c12 * g2
-                h2 = c20 * g0 + c21 * g1 + c22 * g2
-                gg += h0 * h0 + h1 * h1 + h2 * h2
-            if det > 0.0:
+                if bound:
+                    h0 = c00 * g0 + c01 * g1 + c02 * g2
+                    h1 = c10 * g0 + c11 * g1 + c12 * g2
+                    h2 = c20 * g0 + c21 * g1 + c22 * g2
+                    gg += h0 * h0 + h1 * h1 + h2 * h2
+            if bound and det > 0.0:
                 omega2 = max(omega2, 8.0 * wave2 * gg / (det * det))
         if hourglass:
             e_hg = 0.0

@@ -161,7 +161,7 @@ class SolidBody(BodyBase):
         if n_inverted:  # C alone cannot tell an inverted element
             self._evaluated_at = None
             raise KernelFailure(f"{n_inverted} quadrature points: inverted elements (det F <= 0)"
-                                f"{self._where(inverted)}")
+                                f" in body {self.name!r}{self.locate(inverted)}")
         cm = cj[:, :9]
         ps = self.plastic
         res = evaluate(
@@ -227,11 +227,25 @@ class SolidBody(BodyBase):
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
                                 plastic_floor: float = 0.3) -> HexInternalForce | None:
-        """Element loops for the explicit solver on P1 hexahedra; None: use the forms."""
-        if (self.mesh.topology.cell_name() != "hexahedron" or self.spec.degree != 1
-                or self.damaging):
+        """Element loops for the explicit solver on hexahedra; None: use the forms.
+
+        ``integration`` applies to P1 hexahedra; P2 ones (the meso-scale walls) are
+        always fully integrated.
+        """
+        if self.mesh.topology.cell_name() != "hexahedron" or self.spec.degree not in (1, 2):
             return None
+        if self.spec.degree == 2:
+            integration = "full"
         return HexInternalForce(self, integration, hourglass, density, plastic_floor)
+
+    @property
+    def band_geometry(self) -> tuple[np.ndarray, int] | None:
+        """A fracturing body's crack-band geometry (None for other materials).
+
+        The owned cells' inverse Jacobians at their centres (cells, 9) and the points per
+        cell, as :func:`~forming.materials.solids.evaluate` takes them.
+        """
+        return self._cells
 
     def contact_stiffness(self) -> float:
         """Largest diagonal elastic modulus [MPa] (sets default contact penalties)."""
@@ -252,16 +266,15 @@ class SolidBody(BodyBase):
                 self.plastic.ep[:, 0] if self.damaging else self.plastic.evp)
             f.x.scatter_forward()
 
-    def _where(self, points: np.ndarray) -> str:
-        """`` in body NAME, the first in the cell at (x, y, z)`` for a mask over the points.
+    def locate(self, points: np.ndarray) -> str:
+        """``, the first in the cell at (x, y, z) mm`` for a mask over the points.
 
         The points are cell by cell, the same number in each (:attr:`point_cells`).
         """
         per_cell = self.n_points // len(self.point_cells)
         cell = self.point_cells[int(np.argmax(points)) // per_cell]
         mid = dmesh.compute_midpoints(self.mesh, 3, np.array([cell], dtype=np.int32))[0]
-        return (f" in body {self.name!r}, the first in the cell at "
-                f"({mid[0]:.3g}, {mid[1]:.3g}, {mid[2]:.3g}) mm")
+        return f", the first in the cell at ({mid[0]:.3g}, {mid[1]:.3g}, {mid[2]:.3g}) mm"
 
     def min_det_F(self) -> float:
         """Smallest Jacobian determinant over the quadrature points of all ranks.

@@ -120,20 +120,14 @@ def evaluate(
     if k.damage:
         ginv, per_cell = (np.eye(3).reshape(1, 9), n) if cells is None else cells
         hist_out, kappa_out = np.zeros((n, 6)), np.zeros(n)
-        props = k.props
-        eta = getattr(material, "viscosity", 0.0)
-        if eta > 0.0 and load_increment > 0.0 and not frozen:
-            w = load_increment * travel / eta  # the step's travel over the viscosity
-            props = k.props.copy()
-            props[DAMAGE_RATE] = w / (1.0 + w)
+        props = k.props if frozen else _damage_props(material, k, load_increment, travel)
         nbad, worst = damage_points(cm, ep_in, evp_in, k.cel, k.measure, props,
                                     np.ascontiguousarray(ginv), max(int(per_cell), 1), s,
                                     d, hist_out, kappa_out, want_tangent)
         if not frozen:
             ep_out, evp_out = hist_out, kappa_out
-            if (cells is not None and per_cell > 1
-                    and getattr(material, "element_deletion", "all") == "first"):
-                _erode_whole_cells(hist_out, int(per_cell))
+            if cells is not None:
+                _delete_elements(material, hist_out, int(per_cell))
         return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad),
                            int(worst))
     if frozen:  # elastic about the plastic state: no return mapping, state unchanged
@@ -147,6 +141,24 @@ def evaluate(
         mode, h,
     )
     return PointResult(s, d if want_tangent else None, ep_out, evp_out, int(nbad), int(worst))
+
+
+def _damage_props(material: PointMaterial, k: KernelData, load_increment: float,
+                  travel: float) -> np.ndarray:
+    """A damaging material's parameters, with the step's share of its viscous lag."""
+    eta = getattr(material, "viscosity", 0.0)
+    if eta > 0.0 and load_increment > 0.0:
+        w = load_increment * travel / eta  # the step's travel over the viscosity
+        props = k.props.copy()
+        props[DAMAGE_RATE] = w / (1.0 + w)
+        return props
+    return k.props
+
+
+def _delete_elements(material: PointMaterial, hist: np.ndarray, per_cell: int) -> None:
+    """Erode whole cells at their first eroded point under ``element_deletion="first"``."""
+    if per_cell > 1 and getattr(material, "element_deletion", "all") == "first":
+        _erode_whole_cells(hist, per_cell)
 
 
 def _erode_whole_cells(hist: np.ndarray, per_cell: int) -> None:
@@ -164,19 +176,32 @@ _NO_TANGENT = np.zeros((0, 36))  # the stress-only kernels never write a tangent
 def point_stress(material: PointMaterial, cmats: np.ndarray, ep_n: np.ndarray,
                  evp_n: np.ndarray, s_out: np.ndarray, ep_out: np.ndarray,
                  evp_out: np.ndarray, load_increment: float = 0.0,
-                 travel: float = 1.0) -> tuple[int, int]:
+                 travel: float = 1.0,
+                 cells: tuple[np.ndarray, int] | None = None) -> tuple[int, int]:
     """The stress alone, into preallocated arrays (the explicit solver's increments).
 
     The same stress update as :func:`evaluate` without a tangent, bit for bit; for an
-    elastic material the plastic arrays are ignored (they may be empty).
+    elastic material the plastic arrays are ignored (they may be empty). A damaging
+    material needs ``cells`` (as :func:`evaluate`'s: its crack bands).
 
     Returns:
         (number of points with a non-zero status, worst status).
+
+    Raises:
+        InputError: A damaging material without ``cells``.
     """
     k = material.kernel_data()
     if k.damage:
-        raise InputError("material", "a fracturing solid is evaluated through evaluate() "
-                         "(its crack bands need the cells), not point_stress()")
+        if cells is None:
+            raise InputError("material", "a fracturing solid's crack bands need the cells' "
+                             "inverse Jacobians (point_stress(..., cells=...))")
+        ginv, per_cell = cells
+        nbad, worst = damage_points(cmats, ep_n, evp_n, k.cel, k.measure,
+                                    _damage_props(material, k, load_increment, travel),
+                                    ginv, max(int(per_cell), 1), s_out, _NO_TANGENT,
+                                    ep_out, evp_out, False)
+        _delete_elements(material, ep_out, int(per_cell))
+        return int(nbad), int(worst)
     if not k.plastic:
         return kernels.elastic_points(cmats, k.cel, k.measure, s_out, _NO_TANGENT,
                                       kernels.TANGENT_NONE, 0.0)
