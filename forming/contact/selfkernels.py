@@ -52,8 +52,6 @@ def bin_triangles(x, tris, reach):
     n_t = tris.shape[0]
     cen = np.zeros((n_t, 3))
     rad = np.zeros(n_t)
-    lo = np.full(3, np.inf)
-    hi = np.full(3, -np.inf)
     for t in range(n_t):
         for k in range(3):
             cen[t, k] = (x[tris[t, 0], k] + x[tris[t, 1], k] + x[tris[t, 2], k]) / 3.0
@@ -61,9 +59,8 @@ def bin_triangles(x, tris, reach):
             d2 = 0.0
             for k in range(3):
                 d2 += (x[tris[t, a], k] - cen[t, k]) ** 2
-                lo[k] = min(lo[k], x[tris[t, a], k] - reach)
-                hi[k] = max(hi[k], x[tris[t, a], k] + reach)
             rad[t] = max(rad[t], np.sqrt(d2))
+    lo, hi = _grid_box(cen, reach)
     size = hi - lo
     h = 2.0 * np.median(rad) + reach + 1e-12
     h = max(h, (size[0] * size[1] * size[2] / (8.0 * n_t + 4096.0)) ** (1.0 / 3.0))
@@ -106,6 +103,27 @@ def bin_triangles(x, tris, reach):
                     members[fill[key]] = t
                     fill[key] += 1
     return lo, h, dims, start, members, big
+
+
+@numba.njit(cache=True)
+def _grid_box(cen, reach):
+    """The grid's box: the triangle centroids' bulk, not their extremes.
+
+    The 0.5% and 99.5% quantiles along each axis, widened by a tenth of their span and
+    the reach. A few nodes flung far from the walls (a cracked wall's) would otherwise
+    stretch the box, and with it the spacing, until every node tested every triangle; a
+    point outside the box falls in its border cells (:func:`_cell` clamps), which keeps
+    the search exact.
+    """
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for k in range(3):
+        a = np.percentile(cen[:, k], 0.5)
+        b = np.percentile(cen[:, k], 99.5)
+        pad = 0.1 * (b - a) + reach
+        lo[k] = max(a - pad, cen[:, k].min() - reach)
+        hi[k] = min(b + pad, cen[:, k].max() + reach)
+    return lo, hi
 
 
 @numba.njit(cache=True, inline="always")
@@ -204,6 +222,34 @@ def _near(x, tris, t, s, reach):
 
 
 @numba.njit(cache=True)
+def _frames(x, tris):
+    """Per triangle: unit normal, the two edges from its first node, and its doubled area.
+
+    Computed once per search for every triangle (each is a candidate of tens of slave
+    nodes); a degenerate triangle has area 0 and no normal.
+    """
+    out = np.zeros((tris.shape[0], 10))
+    for t in range(tris.shape[0]):
+        n0, n1, n2 = tris[t, 0], tris[t, 1], tris[t, 2]
+        e10 = x[n1, 0] - x[n0, 0]
+        e11 = x[n1, 1] - x[n0, 1]
+        e12 = x[n1, 2] - x[n0, 2]
+        e20 = x[n2, 0] - x[n0, 0]
+        e21 = x[n2, 1] - x[n0, 1]
+        e22 = x[n2, 2] - x[n0, 2]
+        m0 = e11 * e22 - e12 * e21
+        m1 = e12 * e20 - e10 * e22
+        m2 = e10 * e21 - e11 * e20
+        size = np.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+        if size > 0.0:
+            out[t, 0], out[t, 1], out[t, 2] = m0 / size, m1 / size, m2 / size
+        out[t, 3], out[t, 4], out[t, 5] = e10, e11, e12
+        out[t, 6], out[t, 7], out[t, 8] = e20, e21, e22
+        out[t, 9] = size
+    return out
+
+
+@numba.njit(cache=True)
 def penetrations(x, tris, slaves, offsets, cand, depth, both_sides, touching, onset):
     """The deepest candidate triangle each slave node has penetrated.
 
@@ -230,6 +276,7 @@ def penetrations(x, tris, slaves, offsets, cand, depth, both_sides, touching, on
     dist = np.zeros(n_s)
     bary = np.zeros((n_s, 3))
     normal = np.zeros((n_s, 3))
+    frame = _frames(x, tris)
     for i in range(n_s):
         s = slaves[i]
         p0, p1, p2 = x[s, 0], x[s, 1], x[s, 2]
@@ -237,26 +284,18 @@ def penetrations(x, tris, slaves, offsets, cand, depth, both_sides, touching, on
         deepest = depth if touching[i] else onset
         for r in range(offsets[i], offsets[i + 1]):
             t = cand[r]
-            n0, n1, n2 = tris[t, 0], tris[t, 1], tris[t, 2]
-            e10 = x[n1, 0] - x[n0, 0]
-            e11 = x[n1, 1] - x[n0, 1]
-            e12 = x[n1, 2] - x[n0, 2]
-            e20 = x[n2, 0] - x[n0, 0]
-            e21 = x[n2, 1] - x[n0, 1]
-            e22 = x[n2, 2] - x[n0, 2]
-            m0 = e11 * e22 - e12 * e21
-            m1 = e12 * e20 - e10 * e22
-            m2 = e10 * e21 - e11 * e20
-            size = np.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
-            if size == 0.0:
+            g = frame[t]
+            if g[9] == 0.0:  # a degenerate triangle
                 continue
-            m0, m1, m2 = m0 / size, m1 / size, m2 / size
+            m0, m1, m2 = g[0], g[1], g[2]
+            n0 = tris[t, 0]
             w0, w1, w2 = p0 - x[n0, 0], p1 - x[n0, 1], p2 - x[n0, 2]
             d = w0 * m0 + w1 * m1 + w2 * m2
             if not (-deepest < d < (depth if both_sides else 0.0)):
                 continue
             if abs(d) >= best:
                 continue
+            e10, e11, e12, e20, e21, e22 = g[3], g[4], g[5], g[6], g[7], g[8]
             # barycentric coordinates of the projection
             q0, q1, q2 = w0 - d * m0, w1 - d * m1, w2 - d * m2
             d00 = e10 * e10 + e11 * e11 + e12 * e12
