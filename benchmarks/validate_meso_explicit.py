@@ -163,7 +163,9 @@ def main() -> None:
                   f"- Strain reached {m['final_strain']:.3f}"
                   + ("." if bonded["status"] == "completed" else
                      f" ({bonded['status']}); densification "
-                     + ("not reached." if np.isnan(onset) else f"from {onset:.3f}.")),
+                     + ("not reached." if np.isnan(onset) else f"from {onset:.3f}."))
+                  + " The 10 mm core's 1 x 1 patch runs on to 0.8 and densifies: 'Meso "
+                  "patch size', below.",
                   f"- The contact's ledger (penalty work, with the interface terms') "
                   f"ended at {ledger[-1]:.2f} N mm (lowest {ledger.min():.2f}): negative "
                   "means the penalty gave the walls energy it had not stored."]
