@@ -46,6 +46,19 @@ def _forces(body, loop, u):
     return out.array.copy()
 
 
+def _assert_equals_the_form(body, f_loop):
+    """The loops' forces equal the assembled residual form's to 1e-10 of the largest."""
+    body.invalidate()
+    body.update_material(want_tangent=False)
+    f_form = la.vector(body.V.dofmap.index_map, 3)
+    fem.assemble_vector(f_form.array, fem.form(body.residual(ufl.TestFunction(body.V))))
+    f_form.scatter_reverse(la.InsertMode.add)
+    n = body.V.dofmap.index_map.size_local * 3
+    scale = np.max(np.abs(f_form.array[:n]))
+    assert scale > 0
+    assert np.max(np.abs(f_loop[:n] - f_form.array[:n])) < 1e-10 * scale
+
+
 @pytest.mark.parametrize("plastic", [False, True])
 def test_full_integration_equals_the_residual_form(plastic):
     """Full integration gives the implicit solver's residual (the same UFL form's points).
@@ -59,15 +72,7 @@ def test_full_integration_equals_the_residual_form(plastic):
     rng = np.random.default_rng(1)
     u = 0.4 * rng.uniform(-1, 1, body.u.x.array.size)
     f_loop = _forces(body, loop, u)
-    body.invalidate()
-    body.update_material(want_tangent=False)
-    f_form = la.vector(body.V.dofmap.index_map, 3)
-    fem.assemble_vector(f_form.array, fem.form(body.residual(ufl.TestFunction(body.V))))
-    f_form.scatter_reverse(la.InsertMode.add)
-    n = body.V.dofmap.index_map.size_local * 3
-    scale = np.max(np.abs(f_form.array[:n]))
-    assert scale > 0
-    assert np.max(np.abs(f_loop[:n] - f_form.array[:n])) < 1e-10 * scale
+    _assert_equals_the_form(body, f_loop)
 
 
 @pytest.mark.parametrize("deletion", ["all", "first"])
@@ -100,15 +105,7 @@ def test_quadratic_fracturing_walls_equal_the_residual_form(deletion):
     assert np.count_nonzero(hist[:, 0] > 0) > 10  # damage grew at many points
     assert loop.omega2 == 0.0  # P2: the step comes from the Gershgorin bound
     ps.ep_trial[:] = ps.ep
-    body.invalidate()
-    body.update_material(want_tangent=False)
-    f_form = la.vector(body.V.dofmap.index_map, 3)
-    fem.assemble_vector(f_form.array, fem.form(body.residual(ufl.TestFunction(body.V))))
-    f_form.scatter_reverse(la.InsertMode.add)
-    n = body.V.dofmap.index_map.size_local * 3
-    scale = np.max(np.abs(f_form.array[:n]))
-    assert scale > 0
-    assert np.max(np.abs(f_loop[:n] - f_form.array[:n])) < 1e-10 * scale
+    _assert_equals_the_form(body, f_loop)
     assert np.allclose(hist, ps.ep_trial, rtol=0, atol=1e-12)
     assert np.allclose(kappa, ps.evp_trial, rtol=0, atol=1e-12)
 
