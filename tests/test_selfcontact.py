@@ -184,7 +184,8 @@ if __name__ == "__main__":  # the 2-rank run of the test above
 def test_the_search_finds_what_a_brute_force_search_finds():
     """The binned candidate search returns, node by node, exactly the triangles a test of
     every node against every triangle returns, on a crumpled sheet of 1,800 triangles with
-    one face stretched across the whole sheet (a cracked wall) and one eroded. A failure
+    one face stretched across the whole sheet (a cracked wall), one eroded, and a fragment
+    flung 500 mm off with a node that meets it there. A failure
     means self-contacts are missed (a fold passes through a wall) or the list is padded.
     """
     from forming.contact.selfkernels import _near, candidates
@@ -198,6 +199,12 @@ def test_the_search_finds_what_a_brute_force_search_finds():
              for i in range(n - 1) for j in range(n - 1)]
     tris = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))], np.int64)
     x[0] = (-20.0, -20.0, 5.0)  # node 0 flung away: its triangle spans the sheet
+    # a fragment flung 500 mm off (the last quad's nodes) and a node that meets it there:
+    # both outside the grid's box, in its border cells
+    far = np.array([(n - 2) * n + n - 2, (n - 1) * n + n - 2, (n - 1) * n + n - 1,
+                    (n - 2) * n + n - 1])
+    x[far] += (400.0, 300.0, -200.0)
+    x[5] = x[far].mean(axis=0) + (0.0, 0.0, 0.1)
     tri_cell = np.arange(len(tris), dtype=np.int64) // 2
     node_cells = [[] for _ in range(len(x))]
     for t, tri in enumerate(tris):
@@ -217,3 +224,4 @@ def test_the_search_finds_what_a_brute_force_search_finds():
                     and tri_cell[t] not in mine and _near(x, tris, t, s, reach)]
         assert list(found[offsets[s]:offsets[s + 1]]) == expected, s
     assert offsets[-1] > 0
+    assert offsets[6] > offsets[5]  # the node by the far fragment found it
