@@ -213,7 +213,7 @@ def densification_lines(dense: list[tuple[str, int, Path, dict]]) -> list[str]:
         m = summary.get("metrics")
         label = cells.replace(",", " x ")
         if not m:
-            lines.append(f"| {label} | {ranks} | {summary.get('status', 'not run')} |"
+            lines.append(f"| {label} | {ranks} | {status_text(_Row(folder, summary), summary)} |"
                          + " |" * 10)
             continue
         e, s = curve(_Row(folder, summary), summary)

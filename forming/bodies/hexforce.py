@@ -201,7 +201,7 @@ class HexInternalForce:
         self.stress = np.zeros((n, 6))
         ps = body.plastic
         self.damaging = body.damaging
-        self._cells = body.band_geometry if self.damaging else None
+        self._cells = body.band_geometry  # None unless it fractures
         if ps is not None and not self.reduced:  # the body's own points: its own arrays
             self.ep, self.evp, self.ep_trial, self.evp_trial = (
                 ps.ep, ps.evp, ps.ep_trial, ps.evp_trial)
