@@ -10,10 +10,12 @@ import json
 import sys
 from pathlib import Path
 
+import numba
 import numpy as np
 import pytest
 from helpers import run_mpi
 
+from forming.contact.selflist import VerletList, _excluded, candidates, distance2
 from forming.errors import InputError
 from forming.job import Job
 from forming.materials import ElasticSolid, IsotropicElasticity
@@ -181,6 +183,43 @@ if __name__ == "__main__":  # the 2-rank run of the test above
     simulate(_explicit_job(2), Path(sys.argv[1]), "blocks", {})
 
 
+def _crumpled_sheet(n: int = 31, seed: int = 7):
+    """A crumpled 10 x 10 mm sheet of triangles, two per cell, and its node-cell pairs."""
+    rng = np.random.default_rng(seed)
+    gx, gy = np.meshgrid(np.linspace(0, 10, n), np.linspace(0, 10, n), indexing="ij")
+    x = np.column_stack([gx.ravel(), gy.ravel(), 0.3 * np.sin(gx.ravel()) * np.cos(gy.ravel())])
+    x += rng.normal(scale=0.05, size=x.shape)
+    quads = [(i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1, i * n + j + 1)
+             for i in range(n - 1) for j in range(n - 1)]
+    tris = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))], np.int64)
+    tri_cell = np.arange(len(tris), dtype=np.int64) // 2
+    return (x, tris, tri_cell, *_node_cells(len(x), tris, tri_cell))
+
+
+def _node_cells(n: int, tris: np.ndarray, tri_cell: np.ndarray):
+    """The cells each node belongs to, in CSR form (offsets, cells)."""
+    node_cells = [[] for _ in range(n)]
+    for t, tri in enumerate(tris):
+        for v in tri:
+            node_cells[v].append(tri_cell[t])
+    ptr = np.cumsum([0] + [len(c) for c in node_cells]).astype(np.int64)
+    cells = np.array([c for cs in node_cells for c in cs], np.int64)
+    return ptr, cells
+
+
+@numba.njit(cache=True)
+def _pairs_within(x, tris, tri_cell, ptr, cells, tri_dead, slaves, reach):
+    """Brute force: (n_slaves, n_triangles), whether the triangle's nearest point lies
+    within ``reach`` of the slave (neither on its cells nor eroded)."""
+    out = np.zeros((slaves.size, tris.shape[0]), dtype=np.bool_)
+    for i in range(slaves.size):
+        s = slaves[i]
+        for t in range(tris.shape[0]):
+            if not tri_dead[t] and not _excluded(s, t, tris, tri_cell, ptr, cells):
+                out[i, t] = distance2(x, tris, t, x[s, 0], x[s, 1], x[s, 2]) <= reach**2
+    return out
+
+
 def test_the_search_finds_what_a_brute_force_search_finds():
     """The binned candidate search returns, node by node, exactly the triangles a test of
     every node against every triangle returns, on a crumpled sheet of 1,800 triangles with
@@ -188,16 +227,8 @@ def test_the_search_finds_what_a_brute_force_search_finds():
     flung 500 mm off with a node that meets it there. A failure
     means self-contacts are missed (a fold passes through a wall) or the list is padded.
     """
-    from forming.contact.selfkernels import _near, candidates
-
-    rng = np.random.default_rng(7)
+    x, tris, tri_cell, ptr, cells = _crumpled_sheet()
     n = 31
-    gx, gy = np.meshgrid(np.linspace(0, 10, n), np.linspace(0, 10, n), indexing="ij")
-    x = np.column_stack([gx.ravel(), gy.ravel(), 0.3 * np.sin(gx.ravel()) * np.cos(gy.ravel())])
-    x += rng.normal(scale=0.05, size=x.shape)
-    quads = [(i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1, i * n + j + 1)
-             for i in range(n - 1) for j in range(n - 1)]
-    tris = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))], np.int64)
     x[0] = (-20.0, -20.0, 5.0)  # node 0 flung away: its triangle spans the sheet
     # a fragment flung 500 mm off (the last quad's nodes) and a node that meets it there:
     # both outside the grid's box, in its border cells
@@ -205,23 +236,66 @@ def test_the_search_finds_what_a_brute_force_search_finds():
                     (n - 2) * n + n - 1])
     x[far] += (400.0, 300.0, -200.0)
     x[5] = x[far].mean(axis=0) + (0.0, 0.0, 0.1)
-    tri_cell = np.arange(len(tris), dtype=np.int64) // 2
-    node_cells = [[] for _ in range(len(x))]
-    for t, tri in enumerate(tris):
-        for v in tri:
-            node_cells[v].append(tri_cell[t])
-    ptr = np.cumsum([0] + [len(c) for c in node_cells]).astype(np.int64)
-    cells = np.array([c for cs in node_cells for c in cs], np.int64)
     tri_dead = np.zeros(len(tris), bool)
     tri_dead[100] = True
     slaves = np.arange(len(x), dtype=np.int64)
     reach = 0.4
     offsets, found = candidates(x, tris, tri_cell, ptr, cells, slaves, reach, tri_dead,
                                 np.zeros(len(x), bool))
+    near = _pairs_within(x, tris, tri_cell, ptr, cells, tri_dead, slaves, reach)
     for s in slaves:
-        mine = set(cells[ptr[s]:ptr[s + 1]])
-        expected = [t for t in range(len(tris)) if not tri_dead[t] and s not in tris[t]
-                    and tri_cell[t] not in mine and _near(x, tris, t, s, reach)]
-        assert list(found[offsets[s]:offsets[s + 1]]) == expected, s
+        assert list(found[offsets[s]:offsets[s + 1]]) == list(np.flatnonzero(near[s])), s
     assert offsets[-1] > 0
     assert offsets[6] > offsets[5]  # the node by the far fragment found it
+    # the stretched face is listed only where it passes, not for its whole bounding sphere
+    stretched = np.flatnonzero((tris == 0).any(axis=1))
+    assert np.isin(found, stretched).sum() < 0.2 * len(x)
+
+
+def test_the_list_kept_as_sheets_close_holds_every_pair_in_reach():
+    """The Verlet list kept by partial searches (a fragment flung through a sheet; then
+    the sheets' own motion) and now and then a full one, with cells eroding on the way,
+    holds at every one of 200 increments each pair a brute-force test finds within the
+    hit radius, and no eroded face, while one crumpled sheet closes onto another. A
+    failure means a contact the search misses: a fold passes through a wall. Both kinds
+    of search must have run, or the test proves nothing of one.
+    """
+    xa, tris_a, cell_a, _, _ = _crumpled_sheet(n=21, seed=3)
+    n_a = len(xa)
+    x = np.vstack([xa, xa[::-1] + (0.1, 0.0, 0.35)])  # the upper sheet faces the lower
+    tris = np.vstack([tris_a, tris_a + n_a])
+    tri_cell = np.concatenate([cell_a, cell_a + cell_a.max() + 1])
+    ptr, cells = _node_cells(len(x), tris, tri_cell)
+    rng = np.random.default_rng(11)
+    depth = 0.1
+    hit = 1.12 * depth
+    slaves = np.arange(0, len(x), 2, dtype=np.int64)
+    # partial searches whatever they cost, and a full one now and then
+    verlet = VerletList(tris, tri_cell, ptr, cells, slaves, hit, depth, partial_cost=1e9)
+    fling = n_a + rng.choice(n_a, 3, replace=False)  # upper-sheet nodes shot down and across
+    speed = np.column_stack([rng.normal(scale=0.04, size=(3, 2)), np.full(3, -0.01)])
+    tri_dead = np.zeros(len(tris), bool)
+    met = 0
+    for step in range(200):
+        x[n_a:, 2] -= 0.0015  # the upper sheet closes, slower than the margin per increment
+        x += rng.normal(scale=0.0005, size=x.shape)
+        x[fling] += speed
+        if step % 80 == 79:
+            verlet.forget()
+        if step in (50, 120):  # cells erode: their faces and lone nodes leave
+            tri_dead[rng.choice(len(tris), 40, replace=False)] = True
+            alive = np.zeros(len(x), bool)
+            alive[tris[~tri_dead].ravel()] = True
+            verlet.erode(tri_dead, ~alive)
+        offsets, cand = verlet.update(x)
+        near = _pairs_within(x, tris, tri_cell, ptr, cells, tri_dead, slaves, hit)
+        met += int(near.any(axis=1).sum())
+        for i, s in enumerate(slaves):
+            listed = cand[offsets[i]:offsets[i + 1]]
+            assert not tri_dead[listed].any(), (step, s)
+            if not verlet.node_dead[s]:
+                missing = set(np.flatnonzero(near[i])) - set(listed)
+                assert not missing, (step, s, missing)
+    full, partial = verlet.searches
+    assert full == 3 and partial > 20, verlet.searches
+    assert met > 1000  # the sheets did meet

@@ -5,8 +5,8 @@ one wall, meet (the densification of the C365 curve). The scene's
 :class:`~forming.scene_contact.SelfContact` names the surface group whose faces may
 touch; :class:`SurfaceSelfContact` is that surface at run time: the group's faces on
 the body split into triangles over its nodes (a quadratic hexahedron's face into eight
-around its centre node, a linear one's into two), with the search and the forces of
-:mod:`.selfkernels`.
+around its centre node, a linear one's into two), with the search of :mod:`.selflist` and
+the forces of :mod:`.selfkernels`.
 
 The explicit solver enforces the contact by penalty (:class:`SelfContactTerm`): every
 surface node is a slave of every triangle not on a cell of its own, with the soft
@@ -30,11 +30,12 @@ from mpi4py import MPI
 
 from forming import compat  # noqa: F401
 from forming.contact.selfkernels import (
-    candidates,
+    HIT_RADIUS,
     pair_shares,
     penalty_residual,
     penetrations,
 )
+from forming.contact.selflist import VerletList, candidates
 from forming.errors import InputError
 from forming.scene_contact import SelfContact
 
@@ -91,14 +92,13 @@ class SurfaceSelfContact:
         self.mass: np.ndarray | None = None
         self.pairs = 0  # pairs in contact at the last evaluation
         self.penetration = 0.0  # deepest penetration at the last evaluation [mm]
-        self._x_list: np.ndarray | None = None  # positions the candidate list was built at
-        self._list = (np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64))
+        self.verlet = VerletList(self.tris, self.tri_cell, self.ptr, self.cells,
+                                 self.own_rows, HIT_RADIUS * self.depth, self.depth)
         # per own slave: its triangle at the last evaluation (-1: none), its elastic
         # normal force [N] and signed distance [mm] (the rate-form penalty)
         self.pair_state = np.zeros((self.own_rows.size, 3))
         self.pair_state[:, 0] = -1.0
-        self._live = np.ones(self.n, dtype=bool)  # nodes the candidate list follows
-        self._eroded = -1  # eroded cells (all ranks) when the list was built
+        self._eroded = -1  # eroded cells (all ranks) when the list was last updated
         self.deepest = 0.0  # deepest penetration of the run so far [mm]
 
     @staticmethod
@@ -167,23 +167,16 @@ class SurfaceSelfContact:
         return self.x_ref + self._gather(u.reshape(-1, 3)[self.own_blocks])
 
     def _search(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Penetrations at ``x``, from the candidate list (rebuilt when nodes moved).
+        """Penetrations at ``x``, from the candidate list (kept exact as nodes move).
 
-        The list holds the triangles within twice the search depth; it is rebuilt once
-        any surface node has moved half the depth since it was built, or once a cell of
-        the body has eroded on any rank (its faces leave the contact at once; collective).
+        The faces of cells that eroded on any rank leave the list at once (collective).
         """
-        moved = (np.inf if self._x_list is None else float(np.max(
-            np.abs(x[self._live] - self._x_list[self._live]), initial=0.0)))
         eroded = self._eroded_cells()
-        if moved > 0.5 * self.depth or eroded != self._eroded:
+        if eroded != self._eroded:
             self._eroded = eroded
-            tri_dead, node_dead = self._dead()
-            self._list = candidates(x, self.tris, self.tri_cell, self.ptr, self.cells,
-                                    self.own_rows, 2.0 * self.depth, tri_dead, node_dead)
-            self._live = ~node_dead  # what the list must follow (not the eroded fragments)
-            self._x_list = x.copy()
-        return penetrations(x, self.tris, self.own_rows, *self._list, self.depth, False,
+            self.verlet.erode(*self._dead())
+        offsets, cand = self.verlet.update(x)
+        return penetrations(x, self.tris, self.own_rows, offsets, cand, self.depth, False,
                             self.pair_state[:, 0] >= 0, ONSET * self.depth)
 
     def _eroded_cells(self) -> int:
@@ -224,7 +217,8 @@ class SurfaceSelfContact:
         The candidate list is searched afresh at the next evaluation.
         """
         self.pair_state[:] = state
-        self._x_list = None
+        self.verlet.forget()
+        self._eroded = -1
 
     def set_masses(self, m: np.ndarray) -> None:
         """Take the lumped masses of the body's nodes (3 per node; after mass scaling)."""
@@ -275,7 +269,7 @@ class SurfaceSelfContact:
         """
         x = self.positions(u)
         listed = candidates(x, self.tris, self.tri_cell, self.ptr, self.cells,
-                            self.own_rows, self.depth, *self._dead())
+                            self.own_rows, HIT_RADIUS * self.depth, *self._dead())
         hit, dist, _b, _n = penetrations(x, self.tris, self.own_rows, *listed, self.depth,
                                          False, np.zeros(self.own_rows.size, dtype=bool),
                                          self.depth)

@@ -1,4 +1,4 @@
-"""Compiled search and forces of a surface in contact with itself (folding cell walls).
+"""Compiled contact test and forces of a surface in contact with itself (folding walls).
 
 The surface is a set of triangles over surface nodes (:mod:`.selfcontact` builds it from
 a body's boundary faces); every surface node is a slave of every triangle that is not
@@ -6,14 +6,8 @@ on a cell the node belongs to (the walls' own faces are never their own obstacle
 node has penetrated a triangle when its distance to the triangle's plane along the
 outward normal is negative but shallower than the search depth, and its projection
 falls inside the triangle: deeper points are taken to be the other side of the node's
-own wall, which is at least a wall thickness behind it.
-
-Each triangle is binned into every cell of a uniform grid that its bounding sphere,
-grown by the reach, covers; the spacing follows the median triangle, so a node finds
-every triangle it can touch in its own cell, and a few stretched faces (cracked walls)
-neither coarsen the grid nor fill it (one that would cover too many cells is tested
-against every node). The candidates found (a Verlet list) serve until some node has
-moved half the reach beyond the search depth.
+own wall, which is at least a wall thickness behind it. The triangles each node is
+tested against come from a Verlet list (:mod:`.selflist`).
 """
 
 from __future__ import annotations
@@ -25,111 +19,9 @@ _BARY_SLACK = 1e-9  # barycentric slack of a projection inside a triangle
 _LATERAL = 0.5  # lateral reach beyond a triangle's edges, a fraction of the search depth
 _KEEP_DEG = 30.0  # a slave keeps its force on a new triangle facing within this angle
 _KEEP_COS = float(np.cos(np.radians(_KEEP_DEG)))
-_OVERSIZED = 512  # grid cells a triangle's box may cover before every node tests it
-
-
-@numba.njit(cache=True)
-def bin_triangles(x, tris, reach):
-    """Bin the triangles on a uniform grid, each into every cell its reach box covers.
-
-    A triangle's box is its bounding sphere's, grown by ``reach``: a node that lies in
-    none of the cells it covers is farther than the reach from the triangle. The spacing
-    is set by the median triangle (its diameter plus the reach), not the largest, so one
-    stretched face (a cracked wall) does not make the whole surface one cell; a triangle
-    whose box covers more than ``_OVERSIZED`` cells is instead listed apart and tested
-    against every node. The grid holds at most about eight cells per triangle.
-
-    Args:
-        x: (n, 3) current node coordinates [mm].
-        tris: (n_t, 3) node indices of the triangles.
-        reach: Search reach [mm].
-
-    Returns:
-        (lower corner (3,), spacing, cells per axis (3,), triangles per cell in CSR form:
-        start of each cell's run (n_cells + 1,) and triangle indices, oversized triangle
-        indices).
-    """
-    n_t = tris.shape[0]
-    cen = np.zeros((n_t, 3))
-    rad = np.zeros(n_t)
-    for t in range(n_t):
-        for k in range(3):
-            cen[t, k] = (x[tris[t, 0], k] + x[tris[t, 1], k] + x[tris[t, 2], k]) / 3.0
-        for a in range(3):
-            d2 = 0.0
-            for k in range(3):
-                d2 += (x[tris[t, a], k] - cen[t, k]) ** 2
-            rad[t] = max(rad[t], np.sqrt(d2))
-    lo, hi = _grid_box(cen, reach)
-    size = hi - lo
-    h = 2.0 * np.median(rad) + reach + 1e-12
-    h = max(h, (size[0] * size[1] * size[2] / (8.0 * n_t + 4096.0)) ** (1.0 / 3.0))
-    h = max(h, size.max() / 1024.0)
-    dims = np.empty(3, dtype=np.int64)
-    for k in range(3):
-        dims[k] = int(size[k] / h) + 1
-    box = np.empty((n_t, 6), dtype=np.int64)  # cell ranges per triangle, -1: oversized
-    start = np.zeros(dims[0] * dims[1] * dims[2] + 1, dtype=np.int64)
-    n_big = 0
-    for t in range(n_t):
-        covered = 1
-        for k in range(3):
-            box[t, 2 * k] = _cell(cen[t, k] - rad[t] - reach, lo[k], h, dims[k])
-            box[t, 2 * k + 1] = _cell(cen[t, k] + rad[t] + reach, lo[k], h, dims[k])
-            covered *= box[t, 2 * k + 1] - box[t, 2 * k] + 1
-        if covered > _OVERSIZED:
-            box[t, 0] = -1
-            n_big += 1
-            continue
-        for c in range(box[t, 4], box[t, 5] + 1):
-            for b in range(box[t, 2], box[t, 3] + 1):
-                for a in range(box[t, 0], box[t, 1] + 1):
-                    start[a + dims[0] * (b + dims[1] * c) + 1] += 1
-    for c in range(start.shape[0] - 1):
-        start[c + 1] += start[c]
-    fill = start[:-1].copy()
-    members = np.empty(start[-1], dtype=np.int64)
-    big = np.empty(n_big, dtype=np.int64)
-    n_big = 0
-    for t in range(n_t):
-        if box[t, 0] < 0:
-            big[n_big] = t
-            n_big += 1
-            continue
-        for c in range(box[t, 4], box[t, 5] + 1):
-            for b in range(box[t, 2], box[t, 3] + 1):
-                for a in range(box[t, 0], box[t, 1] + 1):
-                    key = a + dims[0] * (b + dims[1] * c)
-                    members[fill[key]] = t
-                    fill[key] += 1
-    return lo, h, dims, start, members, big
-
-
-@numba.njit(cache=True)
-def _grid_box(cen, reach):
-    """The grid's box: the triangle centroids' bulk, not their extremes.
-
-    The 0.5% and 99.5% quantiles along each axis, widened by a tenth of their span and
-    the reach. A few nodes flung far from the walls (a cracked wall's) would otherwise
-    stretch the box, and with it the spacing, until every node tested every triangle; a
-    point outside the box falls in its border cells (:func:`_cell` clamps), which keeps
-    the search exact.
-    """
-    lo = np.empty(3)
-    hi = np.empty(3)
-    for k in range(3):
-        a = np.percentile(cen[:, k], 0.5)
-        b = np.percentile(cen[:, k], 99.5)
-        pad = 0.1 * (b - a) + reach
-        lo[k] = max(a - pad, cen[:, k].min() - reach)
-        hi[k] = min(b + pad, cen[:, k].max() + reach)
-    return lo, hi
-
-
-@numba.njit(cache=True, inline="always")
-def _cell(p, lo, h, n):
-    """Grid cell of coordinate ``p`` along one axis, clamped to the grid."""
-    return min(max(int((p - lo) / h), 0), n - 1)
+# farthest a node registers a contact with a triangle, in search depths: a depth off
+# its plane and the lateral reach off its edges
+HIT_RADIUS = float(np.sqrt(1.0 + _LATERAL**2))
 
 
 @numba.njit(cache=True, inline="always")
@@ -138,87 +30,6 @@ def _clamp(la, lb, lc):
     la, lb, lc = max(la, 0.0), max(lb, 0.0), max(lc, 0.0)
     total = la + lb + lc
     return la / total, lb / total, lc / total
-
-
-@numba.njit(cache=True, inline="always")
-def _excluded(s, t, tris, tri_cell, ptr, cells):
-    """Whether triangle ``t`` holds node ``s`` or lies on a cell node ``s`` belongs to."""
-    if tris[t, 0] == s or tris[t, 1] == s or tris[t, 2] == s:
-        return True
-    for c in range(ptr[s], ptr[s + 1]):
-        if cells[c] == tri_cell[t]:
-            return True
-    return False
-
-
-@numba.njit(cache=True)
-def candidates(x, tris, tri_cell, ptr, cells, slaves, reach, tri_dead, node_dead):
-    """The triangles each slave may touch before it moves ``reach`` less the search depth.
-
-    A Verlet list: every triangle not excluded (:func:`_excluded`) whose centroid lies
-    within ``reach`` plus the triangle's own size of the slave, in ascending order.
-
-    Args:
-        x: (n, 3) current node coordinates [mm].
-        tris: (n_t, 3) triangles.
-        tri_cell: (n_t,) global cell of each triangle.
-        ptr: (n + 1,) offsets into ``cells`` per node.
-        cells: Global indices of the cells each node belongs to.
-        slaves: Indices of the nodes to test.
-        reach: Search depth plus the motion the list must survive [mm].
-        tri_dead: (n_t,) triangles on eroded cells (left out).
-        node_dead: (n,) nodes of eroded cells only (left out).
-
-    Returns:
-        (offsets (n_s + 1,), triangle indices) per slave.
-    """
-    n_s = slaves.shape[0]
-    count = np.zeros(n_s + 1, dtype=np.int64)
-    live = np.flatnonzero(~tri_dead)
-    if live.size == 0:
-        return count, np.zeros(0, dtype=np.int64)
-    lo, h, dims, start, members, big = bin_triangles(x, tris[live], reach)
-    found = []
-    mine = []
-    for i in range(n_s):
-        s = slaves[i]
-        if node_dead[s]:
-            continue
-        key = (_cell(x[s, 0], lo[0], h, dims[0]) + dims[0] * (
-            _cell(x[s, 1], lo[1], h, dims[1]) + dims[1] * _cell(x[s, 2], lo[2], h, dims[2])))
-        mine.clear()
-        for r in range(start[key], start[key + 1] + big.shape[0]):
-            t = live[members[r] if r < start[key + 1] else big[r - start[key + 1]]]
-            if _excluded(s, t, tris, tri_cell, ptr, cells):
-                continue
-            if _near(x, tris, t, s, reach):
-                mine.append(t)
-        mine.sort()
-        found.extend(mine)
-        count[i + 1] = len(mine)
-    for i in range(n_s):
-        count[i + 1] += count[i]
-    out = np.empty(len(found), dtype=np.int64)
-    for j in range(len(found)):
-        out[j] = found[j]
-    return count, out
-
-
-@numba.njit(cache=True, inline="always")
-def _near(x, tris, t, s, reach):
-    """Whether node ``s`` lies within ``reach`` of triangle ``t``'s bounding sphere."""
-    d2 = 0.0
-    size2 = 0.0
-    for k in range(3):
-        cen = (x[tris[t, 0], k] + x[tris[t, 1], k] + x[tris[t, 2], k]) / 3
-        d2 += (x[s, k] - cen) ** 2
-    for v in range(3):
-        e2 = 0.0
-        for k in range(3):
-            cen = (x[tris[t, 0], k] + x[tris[t, 1], k] + x[tris[t, 2], k]) / 3
-            e2 += (x[tris[t, v], k] - cen) ** 2
-        size2 = max(size2, e2)
-    return np.sqrt(d2) <= np.sqrt(size2) + reach
 
 
 @numba.njit(cache=True)
