@@ -27,8 +27,9 @@ import numpy as np
 
 _OVERSIZED = 512  # grid cells a triangle's box may cover before every node tests it
 # a partial search tests, behind a bounding-box check, up to this many pairs per
-# triangle and listed pair that a full search would go through: on the 3 x 3 meso patch
-# at 0.64 strain the two cost the same at about 270 (docs/theory.md, section 15)
+# triangle and listed pair that a full search would go through: a little below where
+# the two took the same time on the 3 x 3 meso patch at 0.64 strain (about 270, timed
+# once on the state the run had there)
 PARTIAL_COST = 200.0
 
 
