@@ -242,17 +242,29 @@ def test_explicit_restart_is_exact(tmp_path):
     """The explicit solver's state (velocities, accelerations, force vectors, time,
     energies, stable time step) round-trips too: resumed from the checkpoint after output
     interval 20 of 50, the history equals the uninterrupted run's (measured: bit for bit;
-    asserted 1e-8). A failure means a part of the solver's snapshot is lost on disk.
+    asserted 1e-8). The resumed run's cost per element and increment is of the increments
+    it ran itself, not of those before the checkpoint too. A failure means a part of the
+    solver's snapshot is lost on disk, or the resumed run reports a cost it did not have.
     """
     sets = [*CRUSHING, "solver=explicit", "explicit.loading_time=0.005"]
-    _resumed_equals_uninterrupted(tmp_path, CASE, sets, (
+    sim = _resumed_equals_uninterrupted(tmp_path, CASE, sets, (
         "t", "time_s", FORCE, "energy_internal_Nmm", "energy_friction_Nmm",
         "energy_kinetic_Nmm", "work_external_Nmm"))
+    solver = sim.solver
+    assert 0 < solver.steps_run < solver.time_steps
+    timing = solver.timing()
+    assert timing["us_per_element_increment"] == pytest.approx(
+        1e6 * timing["integration_s"] / (solver.steps_run * timing["elements"]), rel=1e-12)
 
 
-def _resumed_equals_uninterrupted(tmp_path, case: str, sets: list[str], columns) -> None:
+def _resumed_equals_uninterrupted(tmp_path, case: str, sets: list[str],
+                                  columns) -> Simulation:
     """Stop a run after output interval 25 of 50, resume it from its checkpoint at 20,
-    and compare the history ``columns`` with an uninterrupted run's (1e-8 relative)."""
+    and compare the history ``columns`` with an uninterrupted run's (1e-8 relative).
+
+    Returns:
+        The resumed run, finished.
+    """
     job, params = prepare_case(case, sets)
     job = dataclasses.replace(job, pictures=None, plots=None, checkpoint_every=20)
     ref = Simulation(job, tmp_path / "uninterrupted", case, params, sets)
@@ -268,6 +280,7 @@ def _resumed_equals_uninterrupted(tmp_path, case: str, sets: list[str], columns)
     for column in columns:
         a, b = ref.recorder.column(column), sim.recorder.column(column)
         assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), column
+    return sim
 
 
 def test_explicit_restart_keeps_the_filtered_friction_pressure(tmp_path):

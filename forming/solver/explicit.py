@@ -12,13 +12,11 @@ Within an increment nothing is assembled through forms where compiled loops exis
 solid on hexahedra computes its internal forces element by element
 (:class:`~forming.bodies.hexforce.HexInternalForce`, full or reduced integration), and
 a tool contact node by node (:class:`~forming.contact.nodal.NodalContact`); fabric
-skins, interfaces and distributed loads are assembled from their forms. The works of an
-increment are summed on each rank and over ranks once per output interval
-(:class:`~forming.solver.ledger.EnergyLedger`).
+skins, interfaces and distributed loads are assembled from their forms. Works are summed
+over ranks once per output interval (:class:`~forming.solver.ledger.EnergyLedger`).
 
-Time and load parameter: the load programme runs over ``loading_time`` seconds with the
-load parameter ``s(tau)`` following a smooth step (zero velocity and acceleration at
-both ends), or a linear ramp. See docs/theory.md, section 12 ("Explicit dynamics").
+The load parameter ``s(tau)`` follows a smooth step over ``loading_time`` seconds (no
+velocity or acceleration at the ends) or a ramp: docs/theory.md, section 12.
 """
 
 from __future__ import annotations
@@ -129,6 +127,7 @@ class ExplicitSolver:
         self.mass_added_fraction = self._bound.scale_masses()
         self.tau = 0.0
         self.time_steps = 0
+        self.steps_run = 0  # increments integrated by this run (not by the one it resumed)
         self.assembly_seconds = 0.0
         self.integration_seconds = 0.0  # wall time in solve(), rank 0's
         self.ledger = EnergyLedger()
@@ -237,6 +236,7 @@ class ExplicitSolver:
         model.commit(exclude=self._own)
         self._filters.advance(dt)
         self.time_steps += 1
+        self.steps_run += 1
 
     def _account(self, dt: float, tool_old: list[np.ndarray]) -> None:
         """This rank's works over the increment (trapezoidal rule), tool impulses."""
@@ -468,7 +468,7 @@ class ExplicitSolver:
         """Figures for ``summary.json`` timing.
 
         ``us_per_element_increment``: wall time of the time integration (the intervals'
-        solves) per element of every body and per increment [us].
+        solves) per element of every body and per increment this run integrated [us].
         """
         n_el = self.comm.allreduce(sum(st.body.n_local_cells for st in self.states))
         out = {"time_steps": self.time_steps, "stable_time_step_s": self.dt,
@@ -476,9 +476,9 @@ class ExplicitSolver:
                "assembly_s": self.comm.allreduce(self.assembly_seconds) / self.comm.size,
                "integration_s": self.integration_seconds, "elements": n_el}
         out |= self.model.search_timing() | loop_timing(self._loop_list, self.comm)
-        if self.time_steps:
+        if self.steps_run:
             out["us_per_element_increment"] = (1e6 * self.integration_seconds
-                                               / (self.time_steps * n_el))
+                                               / (self.steps_run * n_el))
         return out
 
     def parameters(self) -> dict:
