@@ -60,6 +60,10 @@ FLANGE_SETS = ("strain=0.1", "solver=explicit", "stabilisation=0",
                "explicit.target_time_step=2e-7", "explicit.loading_time=0.0016",
                "platen=contact", "platen_stick=augmented", "variant=flange")
 PAPER_FLANGE_S = 164.9  # Table 2: dummy flanges, Abaqus/Explicit
+# (folder, what the dummies do, extra --set items) of the cost target's runs
+FLANGE_RUNS = (("flange-3-3", "dummies kept (the case's default)", ()),
+               ("flange-3-3-deleted", "dummies deleted at Table 3's fracture strain, as the "
+                "paper's were (`dummy_deletion=true`)", ("dummy_deletion=true",)))
 
 
 class _Row:
@@ -103,11 +107,14 @@ def main() -> None:
                                        allow_failure=True)
         dense.append((cells, ranks, folder, summary))
     cells, ranks = FLANGE_PATCH
-    flange_folder = OUT / f"flange-{cells.replace(',', '-')}"
-    flange = read_summary(flange_folder)
-    if not args.report and flange.get("status") in (None, "running"):
-        flange = run_case_process("meso_compression", flange_folder, ranks,
-                                  sets=(f"cells={cells}", *FLANGE_SETS), allow_failure=True)
+    flanges = []
+    for name, what, extra in FLANGE_RUNS:
+        summary = read_summary(OUT / name)
+        if not args.report and summary.get("status") in (None, "running"):
+            summary = run_case_process("meso_compression", OUT / name, ranks,
+                                       sets=(f"cells={cells}", *FLANGE_SETS, *extra),
+                                       allow_failure=True)
+        flanges.append((OUT / name, summary, what, extra))
     done = [r for r in runs if r[3].get("metrics")]
     if not done:
         sys.exit("no run of the study has metrics yet")
@@ -177,22 +184,23 @@ def main() -> None:
                 "nominal stress [MPa]", "Meso compression: patch size (explicit, bonded)")
     lines += ["", "![meso patch size](figures/meso_rve_stress_strain.png)"]
     lines += densification_lines(dense)
-    lines += flange_lines(flange_folder, flange)
+    lines += flange_lines(flanges)
     update_section("meso_rve", "\n".join(lines), VALIDATION_MD)
     print("\n".join(lines))
     cost = ["## `meso_compression`: patch size and cost", "",
             "Written by `python benchmarks/validate_meso_rve.py` (docs/validation.md, 'Meso "
             f"patch size', has the results); {machine()}. Explicit, fracturing walls that "
             "touch, 10 mm core, to 0.25 strain (then two rows to 0.8, and the issue's cost "
-            "target's run); each run alone on the machine (beside the two runs to 0.8, short "
+            "target's two runs); each run alone on the machine (beside the two runs to 0.8, short "
             "tests for a minute or two). A run resumed from its checkpoint: the cost per "
             "element and increment of its part after the restart.", "",
             "| cells | ranks | status | elements | increments | us per element and increment "
             "| wall [s] |", "|---|---:|---|---:|---:|---:|---:|"]
     for cells, ranks, folder, summary in runs + [(f"{c} to {DENSE_STRAIN:g}", r, f, x)
                                                   for c, r, f, x in dense] + [
-            (f"{FLANGE_PATCH[0]} with dummy flanges (touching platen; 20 mm core; to 0.1)",
-             FLANGE_PATCH[1], flange_folder, flange)]:
+            (f"{FLANGE_PATCH[0]} with dummy flanges {'deleted' if extra else 'kept'} "
+             "(touching platen; 20 mm core; to 0.1)", FLANGE_PATCH[1], folder, summary)
+            for folder, summary, _what, extra in flanges]:
         t = summary.get("timing", {})
         cost.append(f"| {cells.replace(',', ' x ')} | {ranks} "
                     f"| {status_text(_Row(folder, summary), summary)} "
@@ -224,7 +232,7 @@ def us_text(folder: Path, summary: dict) -> str:
     return f"{1e6 * t['integration_s'] / (run * t['elements']):.1f}"
 
 
-def flange_lines(folder: Path, summary: dict) -> list[str]:
+def flange_lines(flanges: list[tuple[Path, dict, str, tuple]]) -> list[str]:
     """The issue's cost target: the dummy-flange variant on :data:`FLANGE_PATCH`."""
     cells, ranks = FLANGE_PATCH
     label = cells.replace(",", " x ")
@@ -234,20 +242,23 @@ def flange_lines(folder: Path, summary: dict) -> list[str]:
              "Table 2, on a patch, mesh and machine it does not give). The settings of the "
              "touching-platen runs of 'explicit runs, walls that touch' (`"
              + " ".join(f"--set {x}" for x in (f"cells={cells}", *FLANGE_SETS))
-             + f"`), on {ranks} ranks."]
-    t = summary.get("timing")
-    if not t:
-        return lines + ["", f"Not run ({summary.get('status', 'no summary')})."]
-    m = summary.get("metrics", {})
-    lines += ["", f"- {status_text(_Row(folder, summary), summary)}; strain reached "
-              f"{m.get('final_strain', float('nan')):.3f}, peak "
-              f"{m.get('peak_stress_MPa', float('nan')):.2f} MPa at "
-              f"{m.get('peak_strain', float('nan')):.3f}, kinetic energy up to "
-              f"{100 * m.get('kinetic_to_internal_max', float('nan')):.1f}% of the internal.",
-              f"- Wall time {t['wall_s']:.0f} s on {ranks} ranks, "
-              f"{t['wall_s'] / PAPER_FLANGE_S:.1f} times the paper's {PAPER_FLANGE_S} s: "
-              f"{t['time_steps']} increments of {t['elements']} elements (walls and "
-              f"flanges), {us_text(folder, summary)} us per element and increment."]
+             + f"`), on {ranks} ranks.", ""]
+    for folder, summary, what, _extra in flanges:
+        t = summary.get("timing")
+        if not t:
+            lines.append(f"- {what}: not run ({summary.get('status', 'no summary')}).")
+            continue
+        m = summary.get("metrics", {})
+        lines.append(
+            f"- {what}: {status_text(_Row(folder, summary), summary)}; strain reached "
+            f"{m.get('final_strain', float('nan')):.3f}, peak "
+            f"{m.get('peak_stress_MPa', float('nan')):.2f} MPa at "
+            f"{m.get('peak_strain', float('nan')):.3f}, kinetic energy up to "
+            f"{100 * m.get('kinetic_to_internal_max', float('nan')):.1f}% of the internal. "
+            f"Wall time {t['wall_s']:.0f} s on {ranks} ranks, "
+            f"{t['wall_s'] / PAPER_FLANGE_S:.1f} times the paper's {PAPER_FLANGE_S} s: "
+            f"{t['time_steps']} increments of {t['elements']} elements (walls and "
+            f"flanges), {us_text(folder, summary)} us per element and increment.")
     return lines
 
 
