@@ -55,7 +55,7 @@ def restart_for(source: Path, folder: Path, repo: Path, seconds: float, ranks: i
             proc.send_signal(signal.SIGINT)
             proc.wait()
     summary = read_summary(folder)
-    if summary.get("status") != "interrupted" and summary.get("status") != "completed":
+    if summary.get("status") not in ("interrupted", "completed"):
         raise RuntimeError(f"{' '.join(cmd)} did not stop as asked: see "
                            f"{folder.with_suffix('.log')}")
     return summary

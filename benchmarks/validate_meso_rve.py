@@ -89,32 +89,18 @@ def main() -> None:
     parser.add_argument("--report", action="store_true",
                         help="write the section from the runs in the folder, run none")
     args = parser.parse_args()
-    runs = []
-    for cells, ranks in PATCHES:
-        folder = OUT / f"cells-{cells.replace(',', '-')}"
-        summary = read_summary(folder)
-        if not args.report and summary.get("status") in (None, "running"):
-            summary = run_case_process("meso_compression", folder, ranks,
-                                       sets=(f"cells={cells}", *SETS), allow_failure=True)
-        runs.append((cells, ranks, folder, summary))
-    dense = []
-    for cells, ranks in DENSE_PATCHES:
-        folder = OUT / f"densify-{cells.replace(',', '-')}"
-        summary = read_summary(folder)
-        if not args.report and summary.get("status") in (None, "running"):
-            summary = run_case_process("meso_compression", folder, ranks,
-                                       sets=(f"cells={cells}", *DENSE_SETS),
-                                       allow_failure=True)
-        dense.append((cells, ranks, folder, summary))
+
+    def run(folder: Path, ranks: int, sets: tuple[str, ...]) -> dict:
+        return run_or_reuse(folder, ranks, sets, args.report)
+
+    runs = [(cells, ranks, OUT / f"cells-{cells.replace(',', '-')}") for cells, ranks in PATCHES]
+    runs = [(c, r, f, run(f, r, (f"cells={c}", *SETS))) for c, r, f in runs]
+    dense = [(cells, ranks, OUT / f"densify-{cells.replace(',', '-')}")
+             for cells, ranks in DENSE_PATCHES]
+    dense = [(c, r, f, run(f, r, (f"cells={c}", *DENSE_SETS))) for c, r, f in dense]
     cells, ranks = FLANGE_PATCH
-    flanges = []
-    for name, what, extra in FLANGE_RUNS:
-        summary = read_summary(OUT / name)
-        if not args.report and summary.get("status") in (None, "running"):
-            summary = run_case_process("meso_compression", OUT / name, ranks,
-                                       sets=(f"cells={cells}", *FLANGE_SETS, *extra),
-                                       allow_failure=True)
-        flanges.append((OUT / name, summary, what, extra))
+    flanges = [(OUT / name, run(OUT / name, ranks, (f"cells={cells}", *FLANGE_SETS, *extra)),
+                what, extra) for name, what, extra in FLANGE_RUNS]
     done = [r for r in runs if r[3].get("metrics")]
     if not done:
         sys.exit("no run of the study has metrics yet")
@@ -140,8 +126,7 @@ def main() -> None:
         m = summary.get("metrics")
         label = cells.replace(",", " x ")
         if not m:
-            lines.append(f"| {label} | {ranks} | {status_text(_Row(folder, summary), summary)} |"
-                         + " |" * 10)
+            lines.append(_missing_row(label, ranks, folder, summary, 10))
             continue
         e, s = curve(_Row(folder, summary), summary)
         band = (e >= AFTER[0]) & (e <= AFTER[1])
@@ -220,15 +205,45 @@ def _platen_speed(share: float) -> float:
     return 30.0 * x * x * (1.0 - x) ** 2
 
 
+def run_or_reuse(folder: Path, ranks: int, sets: tuple[str, ...], report: bool) -> dict:
+    """A ``meso_compression`` run's summary: the one in ``folder`` if that run ended (or
+    with ``report``), else from running it now."""
+    summary = read_summary(folder)
+    if report or summary.get("status") not in (None, "running"):
+        return summary
+    return run_case_process("meso_compression", folder, ranks, sets=sets, allow_failure=True)
+
+
+def _missing_row(label: str, ranks: int, folder: Path, summary: dict, blanks: int) -> str:
+    """A table row for a run without metrics: its status, then ``blanks`` empty cells."""
+    return (f"| {label} | {ranks} | {status_text(_Row(folder, summary), summary)} |"
+            + " |" * blanks)
+
+
+def _history(folder: Path) -> np.ndarray:
+    """A run's ``history.csv`` as a structured array."""
+    return np.atleast_1d(np.genfromtxt(folder / "history.csv", delimiter=",", names=True))
+
+
+def _before_restart(h: np.ndarray, summary: dict) -> np.ndarray | None:
+    """Rows of a resumed run's history up to its checkpoint (None: not resumed)."""
+    back = summary.get("restarted_from")
+    return None if not back else h["t"] <= back["t"] + 1e-12
+
+
+def _restart_strain(summary: dict) -> float:
+    """The nominal strain at which a resumed run was resumed."""
+    return summary["restarted_from"]["t"] * summary["parameters"]["strain"]
+
+
 def us_text(folder: Path, summary: dict) -> str:
     """Microseconds per element and increment; of a resumed run, of its part after the
     restart (its ``integration_s``) over the increments of that part."""
     t = summary.get("timing", {})
-    back = summary.get("restarted_from")
-    if not back or "integration_s" not in t:
+    if not summary.get("restarted_from") or "integration_s" not in t:
         return f"{t.get('us_per_element_increment', float('nan')):.1f}"
-    h = np.atleast_1d(np.genfromtxt(folder / "history.csv", delimiter=",", names=True))
-    run = np.sum(h["time_increments"][h["t"] > back["t"] + 1e-12])
+    h = _history(folder)
+    run = np.sum(h["time_increments"][~_before_restart(h, summary)])
     return f"{1e6 * t['integration_s'] / (run * t['elements']):.1f}"
 
 
@@ -265,13 +280,12 @@ def flange_lines(flanges: list[tuple[Path, dict, str, tuple]]) -> list[str]:
 def wall_text(folder: Path, summary: dict) -> str:
     """A run's wall time; for a run resumed from a checkpoint, the sum of its output
     intervals' (``step_wall_s``, start-up left out) and where it was resumed."""
-    back = summary.get("restarted_from")
-    if not back:
+    if not summary.get("restarted_from"):
         return f"{summary['timing']['wall_s']:.0f}"
-    h = np.atleast_1d(np.genfromtxt(folder / "history.csv", delimiter=",", names=True))
-    before = h["t"] <= back["t"] + 1e-12
+    h = _history(folder)
+    before = _before_restart(h, summary)
     return (f"{np.sum(h['step_wall_s']):.0f} ({np.sum(h['step_wall_s'][before]):.0f} to "
-            f"{back['t'] * DENSE_STRAIN:.2f}, then resumed)")
+            f"{_restart_strain(summary):.2f}, then resumed)")
 
 
 def _rise_text(e: np.ndarray, s: np.ndarray, peak_strain: float) -> str:
@@ -286,13 +300,12 @@ def _rise_text(e: np.ndarray, s: np.ndarray, peak_strain: float) -> str:
 
 def _resumed_text(summary: dict, h: np.ndarray) -> str:
     """What a resumed run's output intervals say of the contact search's cost."""
-    back = summary.get("restarted_from")
-    if not back:
+    before = _before_restart(h, summary)
+    if before is None:
         return (f" Its last output interval took {h['step_wall_s'][-1]:.0f} s against "
                 f"{np.median(h['step_wall_s']):.0f} s for the median one.")
-    before = h["t"] <= back["t"] + 1e-12
     last = h["step_wall_s"][before][-1]
-    return (f" It was stopped by hand at {back['t'] * DENSE_STRAIN:.2f} strain (its last "
+    return (f" It was stopped by hand at {_restart_strain(summary):.2f} strain (its last "
             f"output interval there took {last:.0f} s against "
             f"{np.median(h['step_wall_s'][before]):.0f} s for the median one, much of it in "
             "searches of the self-contact's whole candidate list) and resumed from its "
@@ -323,8 +336,7 @@ def densification_lines(dense: list[tuple[str, int, Path, dict]]) -> list[str]:
         m = summary.get("metrics")
         label = cells.replace(",", " x ")
         if not m:
-            lines.append(f"| {label} | {ranks} | {status_text(_Row(folder, summary), summary)} |"
-                         + " |" * 10)
+            lines.append(_missing_row(label, ranks, folder, summary, 10))
             continue
         e, s = curve(_Row(folder, summary), summary)
         plateau, onset = regions(e, s, m["peak_strain"])
@@ -345,7 +357,7 @@ def densification_lines(dense: list[tuple[str, int, Path, dict]]) -> list[str]:
         return lines
     folder, summary, e, s, plateau, onset = found["1,1"]
     m, t = summary["metrics"], summary["timing"]
-    h = np.atleast_1d(np.genfromtxt(folder / "history.csv", delimiter=",", names=True))
+    h = _history(folder)
     pairs = [c for c in h.dtype.names if c.startswith("self_contact") and c.endswith("pairs")]
     short = OUT / "cells-1-1"
     short_summary = read_summary(short)
@@ -366,7 +378,7 @@ def densification_lines(dense: list[tuple[str, int, Path, dict]]) -> list[str]:
               "here as in the modulus and the peak."]
     if "3,3" in found:
         folder3, summary3, e3, s3, plateau3, onset3 = found["3,3"]
-        h3 = np.atleast_1d(np.genfromtxt(folder3 / "history.csv", delimiter=",", names=True))
+        h3 = _history(folder3)
         top = min(e[-1], e3[-1])
         grid3 = np.linspace(2 * m["peak_strain"], top, 200)
         gap = (float(np.sqrt(np.mean((np.interp(grid3, e, s) - np.interp(grid3, e3, s3))**2)))
