@@ -125,7 +125,7 @@ class Params:
     fracture: bool = True  # walls fracture at Table 1's strain (False: elastic walls)
     fracture_strain: float = 0.067  # wall fracture strain (Table 1)
     fracture_energy: float = 7.4  # wall fracture energy G_f [N/mm] (estimate, materials.md)
-    wall_deletion: Literal["all", "first"] = "all"  # a wall element erodes: last point / first
+    wall_deletion: Literal["all", "first", "half"] = "all"  # erodes: last point/first/half
     erosion: bool = True  # erode spent points (implicit: needs the stabilisation)
     damage_viscosity: float = 0.0  # viscous lag of the walls' damage [mm of platen travel]
     strain: float = 0.06  # nominal strain reached (0 < strain < 1)

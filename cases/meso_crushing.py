@@ -78,7 +78,7 @@ class Params:
     wall_poisson: float = 0.21  # wall Poisson ratio (Table 1)
     fracture_strain: float = 0.067  # wall fracture strain (Table 1)
     fracture_energy: float = 7.4  # wall fracture energy G_f [N/mm] (estimate)
-    wall_deletion: Literal["all", "first"] = "all"  # a wall element erodes: last point / first
+    wall_deletion: Literal["all", "first", "half"] = "all"  # erodes: last point/first/half
     punch: float = 0.5  # punch width over the patch's width (and depth)
     fillet: float = 2.0  # punch edge fillet radius [mm]
     stroke: float = 0.5  # punch travel over the core height (the paper: half)

@@ -89,7 +89,7 @@ class Params:
     wall_poisson: float = 0.21  # wall Poisson ratio (Table 1)
     fracture_strain: float = 0.067  # wall fracture strain (Table 1)
     fracture_energy: float = 7.4  # wall fracture energy G_f [N/mm] (estimate)
-    wall_deletion: Literal["all", "first"] = "all"  # a wall element erodes: last point / first
+    wall_deletion: Literal["all", "first", "half"] = "all"  # erodes: last point/first/half
     friction: float = 0.36  # tool-core friction (stated)
     stroke: float = 0.5  # share of the scaled stroke run (1: the paper's full stroke)
     imperfection: float = 0.05  # largest imperfection move [mm]

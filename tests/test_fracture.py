@@ -89,26 +89,31 @@ def test_deletion_strain_erodes_in_compression_and_tension(sign):
         FracturingSolid(CARDBOARD, deletion_strain=-0.01)
 
 
-@pytest.mark.parametrize("rule", ["all", "first"])
-def test_an_element_is_deleted_with_its_last_or_its_first_point(rule):
-    """Two cells of 8 points each under a deletion strain of 0.010; one point of the
-    first cell is stretched past it, the other 15 points stay at 0.002. With
-    ``element_deletion="all"`` only that point is eroded; with ``"first"`` (explicit
-    codes' solid element deletion) every point of its cell is, from the next step on
-    (where they carry nothing), and the other cell is untouched. A failure means the
-    rule erodes a neighbouring cell, misses points of its own, or erodes too early.
+@pytest.mark.parametrize("rule", ["all", "first", "half"])
+def test_an_element_is_deleted_with_its_last_first_or_half_its_points(rule):
+    """Three cells of 8 points each under a deletion strain of 0.010: one point of the
+    first cell and four of the second are stretched past it, every other point stays at
+    0.002. With ``element_deletion="all"`` only those five points are eroded; with
+    ``"first"`` (Abaqus/Explicit's solid element deletion) every point of the first two
+    cells; with ``"half"`` (LS-DYNA's VOLFRAC 0.5) every point of the second cell and the
+    one of the first. Eroded points carry nothing from the next step on; the third cell is
+    untouched. A failure means the rule erodes a neighbouring cell, misses points of its
+    own, counts the share wrongly, or erodes too early.
     """
     m = FracturingSolid(IsotropicElasticity(0.3, 0.0), fracture_strain=0.010,
                         fracture_energy=1.0, deletion_strain=0.010, erosion=True,
                         element_deletion=rule)
-    strains = np.full(16, 0.002)
-    strains[5] = 0.02
+    strains = np.full(24, 0.002)
+    failed = np.zeros(24, dtype=bool)
+    failed[[5, 8, 10, 13, 15]] = True
+    strains[failed] = 0.02
     c = np.array([np.diag([np.exp(2 * e), 1.0, 1.0]).ravel() for e in strains])
-    cells = (np.tile(np.eye(3).reshape(1, 9), (2, 1)), 8)
-    first = evaluate(m, c, np.zeros((16, 6)), np.zeros(16), cells=cells)
-    assert np.all(first.S[np.arange(16) != 5, 0] > 0.0)  # still carrying in this step
+    cells = (np.tile(np.eye(3).reshape(1, 9), (3, 1)), 8)
+    first = evaluate(m, c, np.zeros((24, 6)), np.zeros(24), cells=cells)
+    assert np.all(first.S[~failed, 0] > 0.0)  # still carrying in this step
     eroded = first.ep[:, 4] == 1.0
-    want = np.arange(16) == 5 if rule == "all" else np.arange(16) < 8
+    cell = np.arange(24) // 8
+    want = {"all": failed, "first": cell < 2, "half": failed | (cell == 1)}[rule]
     assert np.array_equal(eroded, want)
     after = evaluate(m, c, first.ep, first.evp, cells=cells)
     assert np.all(after.S[want] == 0.0) and np.all(after.S[~want, 0] > 0.0)

@@ -55,7 +55,11 @@ class FracturingSolid:
             solid element deletion (Abaqus/Explicit's and LS-DYNA's default). With
             ``"all"`` a cracked element whose other points still carry stress stays, and
             can stretch far; with ``"first"`` it goes, and the crack opens by a whole
-            element. One-point (reduced) elements: the same.
+            element. ``"half"``: once at least half of its points have, LS-DYNA's
+            default for its fully integrated and higher-order solids (``VOLFRAC`` 0.5 of
+            ``*MAT_ADD_EROSION``; here half of the points by count, not by volume): a
+            crack that has run through half an element takes it, one spent corner does
+            not. One-point (reduced) elements: the same under every rule.
         viscosity: Viscous regularisation of the damage [mm of the tools' travel]: the
             damage follows its rate-independent value with this lag (0: none, the
             default). Implicit runs only; it needs something in the scene to move.
@@ -69,7 +73,7 @@ class FracturingSolid:
     max_damage: float = 0.99
     erosion: bool = False
     deletion_strain: float | None = None
-    element_deletion: Literal["all", "first"] = "all"
+    element_deletion: Literal["all", "first", "half"] = "all"
     viscosity: float = 0.0
     strain_measure: StrainMeasure = "hencky"
     density: float | None = None
@@ -88,9 +92,9 @@ class FracturingSolid:
         if d is not None and not (isinstance(d, int | float) and math.isfinite(d) and d > 0):
             raise InputError("material.deletion_strain",
                              f"must be a positive number or None, got {d!r}")
-        if self.element_deletion not in ("all", "first"):
-            raise InputError("material.element_deletion",
-                             f"must be 'all' or 'first', got {self.element_deletion!r}")
+        if self.element_deletion not in ("all", "first", "half"):
+            raise InputError("material.element_deletion", "must be 'all', 'first' or "
+                             f"'half', got {self.element_deletion!r}")
         if not (0.0 < self.max_damage < 1.0):
             raise InputError("material.max_damage",
                              f"must lie in (0, 1), got {self.max_damage!r}")

@@ -155,18 +155,26 @@ def _damage_props(material: PointMaterial, k: KernelData, load_increment: float,
     return k.props
 
 
+# the share of a cell's points eroded that erodes the whole cell, by ``element_deletion``
+# (at least one point)
+_DELETION_SHARE = {"first": 0.0, "half": 0.5}
+
+
 def _delete_elements(material: PointMaterial, hist: np.ndarray, per_cell: int) -> None:
-    """Erode whole cells at their first eroded point under ``element_deletion="first"``."""
-    if per_cell > 1 and getattr(material, "element_deletion", "all") == "first":
-        _erode_whole_cells(hist, per_cell)
+    """Erode whole cells by their eroded points (``element_deletion`` "first", "half")."""
+    share = _DELETION_SHARE.get(getattr(material, "element_deletion", "all"))
+    if per_cell > 1 and share is not None:
+        _erode_whole_cells(hist, per_cell, share)
 
 
-def _erode_whole_cells(hist: np.ndarray, per_cell: int) -> None:
-    """Every point of a cell with an eroded point is eroded too (from the next step on).
+def _erode_whole_cells(hist: np.ndarray, per_cell: int, share: float) -> None:
+    """Every point of a cell with at least ``share`` of its points eroded is eroded too.
 
-    ``hist`` is the damage history ``[d, h, D, Y, eroded, 0]`` of whole cells in turn.
+    From the next step on. ``hist`` is the damage history ``[d, h, D, Y, eroded, 0]`` of
+    whole cells in turn.
     """
-    hit = hist[:, 4].reshape(-1, per_cell).max(axis=1) > 0.0
+    need = max(1, math.ceil(share * per_cell))
+    hit = np.count_nonzero(hist[:, 4].reshape(-1, per_cell) > 0.0, axis=1) >= need
     hist[np.repeat(hit, per_cell), 4] = 1.0
 
 
