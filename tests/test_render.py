@@ -74,3 +74,28 @@ def test_render_3d_writes_png(tmp_path):
                      (-1.0, 4.0, -1.0, 4.0, 2.0, 7.0), 0.2, title="test")
     assert path.stat().st_size > 1000
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_deformed_grid_draws_only_the_cells_kept():
+    """A 2 x 2 x 2 block displaced by u = (0, 0, 0.1 z): the grid holds the kept cells
+    only, each with its own cell value and its nodes at x + u. A failure means a picture
+    of fractured walls would draw eroded cells (whose drifting nodes make sheets tens of
+    millimetres long) or colour the drawn cells with another cell's value.
+    """
+    from helpers import block_scene
+
+    from forming.materials.library import honeycomb_core
+    from forming.model import Model
+    from forming.post.pictures import deformed_grid
+
+    model = Model(block_scene(honeycomb_core()))
+    body = model.bodies["core"]
+    body.u.interpolate(lambda x: np.vstack([0 * x[0], 0 * x[0], 0.1 * x[2]]))
+    n = body.n_local_cells
+    keep = np.arange(n) % 3 != 0
+    grid = deformed_grid(body, {"index": np.arange(n, dtype=float)}, keep=keep)
+    assert grid.n_cells == np.count_nonzero(keep)
+    np.testing.assert_array_equal(grid.cell_data["index"], np.flatnonzero(keep))
+    # every drawn point sits at 1.1 times its reference height: z' = z + 0.1 z
+    heights = np.unique(np.round(grid.points[:, 2], 9))
+    np.testing.assert_allclose(heights, [0.0, 5.5, 11.0], atol=1e-9)

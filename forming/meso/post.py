@@ -36,7 +36,9 @@ def folded_walls_picture(model, out: Path, title: str, name: str = "folded_walls
     """3D view of the deformed walls coloured by their sideways (in-plane) displacement.
 
     Walls that fracture get a second view, ``damaged_walls.png``, coloured by the
-    largest damage in each cell.
+    largest damage in each cell. Cells whose every point has eroded are not drawn: they
+    carry nothing, and a node that only they hold drifts off with the speed it had (an
+    explicit code's deleted elements are not drawn either).
 
     Collective: written on rank 0 and returned there (empty elsewhere).
     """
@@ -57,7 +59,10 @@ def folded_walls_picture(model, out: Path, title: str, name: str = "folded_walls
     damage = body.damage()
     if damage is not None:  # the worst point of each cell
         fields["damage"] = damage.reshape(n, -1).max(axis=1) if n else np.zeros(0)
-    grid = deformed_grid(body, fields)
+    keep = body.live_cells() if damage is not None else None
+    if keep is not None and model.comm.allreduce(int(np.count_nonzero(~keep))):
+        title = f"{title} (eroded cells not drawn)"
+    grid = deformed_grid(body, fields, keep=keep)
     if model.comm.rank != 0:
         return []
     out = Path(out)

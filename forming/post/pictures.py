@@ -66,13 +66,15 @@ def section_polygons(body: SolidBody, facet_tags, tag: int, axes: tuple[int, int
     return all_polys, all_vals
 
 
-def deformed_grid(body: SolidBody, cell_values: dict[str, np.ndarray], scale: float = 1.0):
+def deformed_grid(body: SolidBody, cell_values: dict[str, np.ndarray], scale: float = 1.0,
+                  keep: np.ndarray | None = None):
     """A pyvista grid of the deformed body (owned cells of every rank) on rank 0.
 
     Args:
         body: The body (hexahedra or tetrahedra).
         cell_values: Arrays of one value per owned cell, attached as cell data.
         scale: Factor on the displacement (0: the reference configuration).
+        keep: True at the owned cells to draw (None: all).
     """
     msh = body.mesh
     comm = msh.comm
@@ -83,7 +85,9 @@ def deformed_grid(body: SolidBody, cell_values: dict[str, np.ndarray], scale: fl
     x = msh.geometry.x[geo]
     disp = _eval_at(body.u, x.reshape(-1, 3), np.repeat(cells, x.shape[1]))
     xd = (x + scale * disp.reshape(x.shape))
-    gathered = comm.gather((xd, {k: v[:n] for k, v in cell_values.items()}), root=0)
+    keep = np.ones(n, dtype=bool) if keep is None else np.asarray(keep[:n], dtype=bool)
+    gathered = comm.gather((xd[keep], {k: v[:n][keep] for k, v in cell_values.items()}),
+                           root=0)
     if comm.rank != 0:
         return None
     import pyvista as pv
