@@ -9,11 +9,6 @@ and the peak resident memory (largest rank). Then the exponent ``p`` of a fit
 ``t_iteration = a N^p`` over the meshes (N unknowns), per solver and rank count, and
 what it gives at 10^6 unknowns. Writes docs/performance.md's ``scaling`` section.
 
-A solver named with ``+reuse`` (``mumps+reuse``, ``mumps_blr+reuse``) is that linear
-solver with ``newton.factorisation=reuse``: GMRES on the factors of an earlier Jacobian,
-a new LU only where that fails (docs/theory.md, section 7); its rows count the
-factorisations made.
-
 The stroke is shortened (``--stroke``, default 10 mm of the 50) and the steps are
 coarser (``--max-step``, default 0.05 of it) so that the finer meshes fit in a session:
 the per-iteration figures hardly depend on either.
@@ -42,15 +37,6 @@ def fit_exponent(dofs: list[float], times: list[float]) -> tuple[float, float] |
         return None
     p, log_a = np.polyfit(np.log(dofs), np.log(times), 1)
     return float(np.exp(log_a)), float(p)
-
-
-def solver_sets(solver: str) -> tuple[str, ...]:
-    """The ``--set`` items of a solver name (``mumps``, ``mumps_blr+reuse``, ...)."""
-    name, _, reuse = solver.partition("+")
-    if reuse not in ("", "reuse"):
-        raise SystemExit(f"--solvers: {solver!r}: only '+reuse' may follow a solver name")
-    return (f"newton.linear_solver={name}",) + (("newton.factorisation=reuse",) if reuse
-                                                 else ())
 
 
 def main() -> None:
@@ -105,7 +91,7 @@ def run_all(args) -> list[dict]:
                         sets=("skins=true", "skin_contact=small", "blank_holder=true",
                               f"cells={cells}",
                               f"stroke={args.stroke}", f"max_step={args.max_step}",
-                              *solver_sets(solver)))
+                              f"newton.linear_solver={solver}"))
                     t = s["timing"]
                     rows.append({
                         "cells": cells, "solver": solver, "ranks": ranks,
@@ -116,7 +102,6 @@ def run_all(args) -> list[dict]:
                         "split_ms": t.get("per_iteration_ms", {}),
                         "peak_rss_mb": t.get("peak_rss_mb", float("nan")),
                         "force_N": s["metrics"].get("punch_force_max_N", float("nan")),
-                        "factorisations": t.get("factorisations", t["newton_iterations"]),
                     })
                     print(json.dumps(rows[-1]), flush=True)
     return rows
@@ -187,15 +172,11 @@ def _against_mumps(args, rows: list[dict]) -> list[str]:
                 same = "" if r["newton"] == base["newton"] else \
                     f" ({r['newton']} Newton iterations against {base['newton']})"
                 solve = r["split_ms"]["linear_solve"] / base["split_ms"]["linear_solve"]
-                kept = ("" if "+" not in solver else
-                        f", with {r.get('factorisations', r['newton'])} factorisations in "
-                        f"{r['newton']} Newton iterations")
                 out.append(
                     f"- {cells}, {ranks} rank(s): {solver} takes "
                     f"{newton_seconds(r) / newton_seconds(base):.2f} of MUMPS's time in "
                     f"Newton, {solve:.2f} of its linear solve per iteration and "
-                    f"{r['peak_rss_mb'] / base['peak_rss_mb']:.2f} of its peak memory"
-                    f"{kept}{same}.")
+                    f"{r['peak_rss_mb'] / base['peak_rss_mb']:.2f} of its peak memory{same}.")
     return out
 
 

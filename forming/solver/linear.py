@@ -73,7 +73,6 @@ def configure(A: PETSc.Mat, spaces: list[fem.FunctionSpace], options: NewtonOpti
 
 
 FRESH_MAX_IT = 50  # GMRES on a fresh LU: 1 iteration (MUMPS), a few (block low-rank)
-MAX_BACKOFF = 8  # at most this many fresh factorisations before kept factors are tried again
 
 
 class ReusedFactorisation:
@@ -82,12 +81,7 @@ class ReusedFactorisation:
     Every Newton iteration assembles its Jacobian; the factorisation of an earlier one
     preconditions GMRES on it (right-preconditioned, to ``rtol`` on the true residual),
     for at most ``options.reuse_max_it`` iterations. Where that does not converge, the LU
-    is computed anew for this Jacobian and the solve repeated. From the second failure
-    in a row on, the next 1, 2, 4 (up to :data:`MAX_BACKOFF`) solves factorise straight
-    away, so that a model whose Jacobian moves too much between iterations pays little
-    for the attempts, while one failure (the first iteration of a step, where contact
-    changes) costs nothing more. The choices depend on iteration
-    counts only, never on timings: a run is reproducible. Every Newton step is
+    is computed anew for this Jacobian and the solve repeated. Every Newton step is
     therefore the exact one to the Krylov tolerance, unlike modified Newton, which takes
     the old matrix for the Jacobian. A factorisation is skipped whenever a few
     triangular solves (each far cheaper than a factorisation on a large model) make up
@@ -117,8 +111,6 @@ class ReusedFactorisation:
         self.factorisations = 0
         self.reused = 0
         self.kept_iterations = 0  # GMRES iterations on kept factors, converged or not
-        self._fails = 0  # failed attempts with kept factors in a row
-        self._skip = 0  # fresh factorisations still to make before the next attempt
 
     def solve(self, outer: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
         """Solve with the kept LU, or with a new one where that fails (PETSc calls this)."""
@@ -126,21 +118,15 @@ class ReusedFactorisation:
         ksp = self.ksp
         ksp.setOperators(A, P)
         pc = ksp.getPC()
-        if self.factorisations and self._skip == 0:
+        if self.factorisations:
             pc.setReusePreconditioner(True)
             ksp.setTolerances(rtol=self.rtol, atol=0.0, max_it=self.max_it)
             ksp.solve(b, x)
             self.kept_iterations += ksp.getIterationNumber()
             if ksp.getConvergedReason() > 0:
                 self.reused += 1
-                self._fails = 0
                 self._report(outer)
                 return
-            # kept factors that fail again and again are tried less and less often
-            self._fails += 1
-            self._skip = 0 if self._fails == 1 else min(2 ** (self._fails - 2), MAX_BACKOFF)
-        elif self._skip:
-            self._skip -= 1
         pc.setReusePreconditioner(False)
         ksp.setTolerances(rtol=self.rtol, atol=0.0, max_it=FRESH_MAX_IT)
         ksp.solve(b, x)
