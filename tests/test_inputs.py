@@ -138,12 +138,6 @@ def test_case_parameters_out_of_range(tmp_path):
         NewtonOptions(force_rtol=-1.0)
     with pytest.raises(InputError, match=r"solver.blr_tolerance"):
         NewtonOptions(linear_solver="mumps_blr", blr_tolerance=0.0)
-    with pytest.raises(InputError, match=r"^newton.factorisation: .*'every' or 'reuse'"):
-        NewtonOptions(factorisation="sometimes")
-    with pytest.raises(InputError, match=r"^newton.factorisation: .*MUMPS"):
-        NewtonOptions(factorisation="reuse", linear_solver="gamg")
-    with pytest.raises(InputError, match=r"^newton.reuse_max_it: "):
-        NewtonOptions(reuse_max_it=0)
 
 
 def test_affine_displacement_components():

@@ -209,37 +209,6 @@ def test_iterative_solvers_give_the_direct_solvers_answer(case, solver, tmp_path
         assert np.abs(a[name] - b[name]).max() <= 1e-8 * scale, name
 
 
-def test_kept_factorisations_give_newtons_answer(tmp_path):
-    """GMRES preconditioned by an earlier Jacobian's LU (``newton.factorisation=reuse``)
-    takes the Newton steps of a fresh LU at every iteration, to its linear tolerance.
-
-    ``core_crushing`` on a 4 x 4 x 2 mesh, 1 mm of stroke: a punch crushing the foam
-    core, where contact
-    and plasticity change the Jacobian from one iteration to the next. Same Newton
-    iterations in every step; every force column within 1e-8 of the run's largest force;
-    and more solves on kept factors than factorisations (the kept LU does serve). A failure
-    means a kept factorisation is applied as if it were the Jacobian (modified Newton:
-    more iterations, another path), a failed GMRES solve is taken without a new LU, or
-    no factorisation is ever kept.
-    """
-    import json
-
-    from forming.case import run_case
-
-    for name in ("every", "reuse"):
-        s = run_case("core_crushing", tmp_path / name,
-                     ["cells=4,4,2", "stroke=1", f"newton.factorisation={name}"])
-        assert s["status"] == "completed", s["reason"]
-    a, b = history(tmp_path / "every"), history(tmp_path / "reuse")
-    np.testing.assert_array_equal(a["newton_iterations"], b["newton_iterations"])
-    forces = [n for n in a.dtype.names if n.startswith(("force_", "reaction_"))]
-    scale = max(np.abs(a[n]).max() for n in forces)
-    for name in forces:
-        assert np.abs(a[name] - b[name]).max() <= 1e-8 * scale, name
-    timing = json.loads((tmp_path / "reuse" / "summary.json").read_text())["timing"]
-    assert 0 < timing["factorisations"] < timing["reused_factorisations"]
-
-
 def test_the_lifting_left_out_where_it_is_zero_changes_no_bit(monkeypatch):
     """The implicit residual leaves out the Dirichlet lifting ``-J (g - u)`` when every
     prescribed dof holds its value (it costs a Jacobian assembly over the cells with such

@@ -104,7 +104,6 @@ class ImplicitSolver:
         self._fnorm0 = 0.0
         self._updates = 0
         linear.configure(self.problem.A, [b.V for b in bodies], self.options)
-        self._reuse = linear.reuse_factorisation(snes.getKSP(), self.prefix, self.options)
         self._residuals: list[float] = []
         self._failure: str | None = None
         self._u_prev: list[np.ndarray] | None = None
@@ -423,8 +422,7 @@ class ImplicitSolver:
         multiplier updates;
         ``per_iteration_ms`` divides each by the Newton iterations; ``linear_solver``
         names the solver used (``auto`` chosen for the model's size);
-        ``jacobian_nonzeros`` is the entries the Jacobian stores at the end, over ranks;
-        with ``factorisation="reuse"``, the factorisations made and kept.
+        ``jacobian_nonzeros`` is the entries the Jacobian stores at the end, over ranks.
         """
         comm = self.model.comm
 
@@ -448,8 +446,7 @@ class ImplicitSolver:
                 "newton_split_s": split,
                 "per_iteration_ms": {k.removesuffix("_s"): 1e3 * v / its
                                      for k, v in split.items()},
-                **self.model.search_timing(), **self._release.summary(),
-                **(self._reuse.summary() if self._reuse else {})}
+                **self.model.search_timing(), **self._release.summary()}
 
     def parameters(self) -> dict:
         """Nothing beyond the case's parameters."""

@@ -35,16 +35,6 @@ class NewtonOptions:
         blr_tolerance: ``mumps_blr``: MUMPS's dropping parameter CNTL(7), the relative
             accuracy of the compressed blocks; larger is cheaper per factorisation and
             costs more GMRES iterations.
-        factorisation: ``"every"`` (default): the LU is computed anew at every Newton
-            iteration. ``"reuse"``: GMRES preconditioned by the last LU computed, to
-            ``ksp_rtol`` 1e-10 on the true residual, for at most ``reuse_max_it``
-            iterations; the LU is computed anew only where that fails
-            (:class:`~forming.solver.linear.ReusedFactorisation`). The Newton path is the
-            same to the linear tolerance; what it buys depends on how far the Jacobian
-            moves between iterations against what a factorisation costs
-            (docs/performance.md). MUMPS solvers only.
-        reuse_max_it: ``factorisation="reuse"``: GMRES iterations with kept factors
-            before they are computed anew.
         rtol: Residual reduction relative to the first residual of a step.
         atol: Absolute residual norm [N].
         force_rtol: Newton also stops when the residual norm is below this fraction of
@@ -88,8 +78,6 @@ class NewtonOptions:
 
     linear_solver: Literal["auto", "mumps", "mumps_blr", "gamg"] = "auto"
     blr_tolerance: float = 1e-4
-    factorisation: Literal["every", "reuse"] = "every"
-    reuse_max_it: int = 10
     rtol: float = 1e-9
     atol: float = 1e-8
     force_rtol: float = 1e-4
@@ -112,14 +100,6 @@ class NewtonOptions:
         if not 0.0 < self.blr_tolerance < 1.0:
             raise InputError("solver.blr_tolerance", f"must be in (0, 1), got "
                              f"{self.blr_tolerance}")
-        if self.factorisation not in ("every", "reuse"):
-            raise InputError("newton.factorisation", "must be 'every' or 'reuse', got "
-                             f"{self.factorisation!r}")
-        if self.factorisation == "reuse" and self.linear_solver == "gamg":
-            raise InputError("newton.factorisation", "'reuse' keeps an LU: it needs a "
-                             "MUMPS linear solver, not 'gamg'")
-        if self.reuse_max_it < 1:
-            raise InputError("newton.reuse_max_it", f"must be >= 1, got {self.reuse_max_it}")
         if self.line_search not in ("basic", "bt", "l2"):
             raise InputError("solver.line_search", f"must be 'basic', 'bt' or 'l2', got "
                              f"{self.line_search!r}")
