@@ -169,9 +169,11 @@ def test_multipliers_inside_newton_equal_uzawa(tmp_path):
 
 def test_auto_linear_solver_follows_the_size():
     """``auto`` is MUMPS's plain LU below the scaling study's crossing and its block
-    low-rank LU from there; a solver named explicitly is kept at any size. A failure
-    means a model gets a linear solver its size was not measured for."""
-    from forming.solver.options import BLR_FROM_UNKNOWNS, NewtonOptions
+    low-rank LU from there; a several-body Jacobian drops its exact zeros below
+    :data:`DROP_ZEROS_BELOW` unknowns and keeps them from there; a choice named
+    explicitly is kept at any size. A failure means a model gets a linear solver or a
+    matrix pattern its size was not measured for."""
+    from forming.solver.options import BLR_FROM_UNKNOWNS, DROP_ZEROS_BELOW, NewtonOptions
 
     auto = NewtonOptions()
     assert auto.linear_solver == "auto"
@@ -180,6 +182,11 @@ def test_auto_linear_solver_follows_the_size():
     assert auto.for_size(BLR_FROM_UNKNOWNS).petsc_options()["mat_mumps_icntl_35"] == "2"
     for named in ("mumps", "gamg", "mumps_blr"):
         assert NewtonOptions(linear_solver=named).for_size(10**7).linear_solver == named
+    assert auto.for_size(DROP_ZEROS_BELOW - 1).zeros == "drop"
+    assert auto.for_size(DROP_ZEROS_BELOW).zeros == "keep"
+    for named in ("drop", "keep"):
+        assert NewtonOptions(zeros=named).for_size(10**7).zeros == named
+        assert NewtonOptions(zeros=named).for_size(10).zeros == named
 
 
 @pytest.mark.parametrize(("case", "solver"), [("core_compression", "gamg"),

@@ -422,7 +422,8 @@ class ImplicitSolver:
         multiplier updates;
         ``per_iteration_ms`` divides each by the Newton iterations; ``linear_solver``
         names the solver used (``auto`` chosen for the model's size);
-        ``jacobian_nonzeros`` is the entries the Jacobian stores at the end, over ranks.
+        ``jacobian_nonzeros`` is the entries the Jacobian stores at the end, over ranks,
+        ``jacobian_zeros`` whether its exact zeros were dropped or kept.
         """
         comm = self.model.comm
 
@@ -438,6 +439,7 @@ class ImplicitSolver:
                  "contact_s": contact}
         its = max(self._work_total, 1)
         return {"linear_solver": self.options.linear_solver,
+                "jacobian_zeros": self.options.zeros,
                 "jacobian_nonzeros": int(self.problem.A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)
                                          ["nz_used"]),
                 "newton_iterations": self._work_total,

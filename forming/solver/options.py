@@ -17,6 +17,12 @@ LINEAR_SOLVERS = ("auto", "mumps", "mumps_blr", "gamg")
 # scaling study (docs/performance.md, sandwich under the hemisphere, serial): its linear
 # solve took 1.06 of the plain LU's time at 9,747 unknowns, 0.87 at 53,391, 0.45 at 212,097
 BLR_FROM_UNKNOWNS = 50_000
+# ``zeros="auto"`` drops a several-body Jacobian's exact zeros below this many unknowns.
+# Serial, the sandwich under the hemisphere (docs/performance.md): the same time either
+# way at 9,747 unknowns; at 53,391 dropping them made each Newton iteration's assembly
+# 4.3 times slower (new non-zeros allocated as contact spreads) and the linear solve no
+# faster; on small models (8,8,2) dropping them made the assembly 1.6 times faster
+DROP_ZEROS_BELOW = 10_000
 
 
 @dataclass(frozen=True)
@@ -68,10 +74,14 @@ class NewtonOptions:
             less of the springs' drag in the answer, at the cost of the second solve
             (:class:`~forming.springs.SpringRelease`). 1 (default): no second solve. The
             step size follows the first solve's iterations.
-        zeros: The exact zeros of a several-body Jacobian: ``"drop"`` (default) inserts
-            none, so the matrix keeps only entries that were ever non-zero (an
-            interface's facet forms fill their element matrices mostly with zeros), or
-            ``"keep"``, the full pattern of the forms. The same solution to round-off.
+        zeros: The exact zeros of a several-body Jacobian: ``"drop"`` inserts none, so
+            the matrix keeps only entries that were ever non-zero (an interface's facet
+            forms fill their element matrices mostly with zeros), or ``"keep"``, the
+            full pattern of the forms; ``"auto"`` (default) drops them below
+            :data:`DROP_ZEROS_BELOW` unknowns and keeps them from there. The same
+            solution to round-off. Dropped zeros make a smaller matrix, but an entry that
+            becomes non-zero later (contact spreading) is a new allocation in the
+            assembly, whose cost grows with the matrix (docs/performance.md).
         petsc: Extra PETSc options for the SNES prefix, overriding the defaults; the
             command line (``-forming_<key> value``) overrides both.
     """
@@ -90,7 +100,7 @@ class NewtonOptions:
     spring_escalation_max: float = 100.0
     spring_escalation_hold: int = 10
     spring_release: float = 1.0
-    zeros: Literal["drop", "keep"] = "drop"
+    zeros: Literal["auto", "drop", "keep"] = "auto"
     petsc: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -109,8 +119,9 @@ class NewtonOptions:
         if self.multipliers not in ("newton", "uzawa"):
             raise InputError("solver.multipliers", f"must be 'newton' or 'uzawa', got "
                              f"{self.multipliers!r}")
-        if self.zeros not in ("drop", "keep"):
-            raise InputError("newton.zeros", f"must be 'drop' or 'keep', got {self.zeros!r}")
+        if self.zeros not in ("auto", "drop", "keep"):
+            raise InputError("newton.zeros",
+                             f"must be 'auto', 'drop' or 'keep', got {self.zeros!r}")
         if not self.force_rtol >= 0.0:
             raise InputError("solver.force_rtol", f"must be >= 0, got {self.force_rtol}")
         if self.max_it < 1:
@@ -126,11 +137,14 @@ class NewtonOptions:
                              f"must be in (0, 1], got {self.spring_release!r}")
 
     def for_size(self, unknowns: int) -> NewtonOptions:
-        """These settings with an ``auto`` linear solver chosen for ``unknowns``."""
-        if self.linear_solver != "auto":
-            return self
-        return replace(self, linear_solver="mumps_blr" if unknowns >= BLR_FROM_UNKNOWNS
-                       else "mumps")
+        """These settings with ``auto`` linear solver and zeros chosen for ``unknowns``."""
+        chosen = self
+        if self.linear_solver == "auto":
+            chosen = replace(chosen, linear_solver="mumps_blr"
+                             if unknowns >= BLR_FROM_UNKNOWNS else "mumps")
+        if self.zeros == "auto":
+            chosen = replace(chosen, zeros="drop" if unknowns < DROP_ZEROS_BELOW else "keep")
+        return chosen
 
     def petsc_options(self) -> dict[str, str]:
         """The SNES/KSP options these settings stand for (``auto`` not chosen: MUMPS)."""
