@@ -18,11 +18,12 @@ LINEAR_SOLVERS = ("auto", "mumps", "mumps_blr", "gamg")
 # solve took 1.06 of the plain LU's time at 9,747 unknowns, 0.87 at 53,391, 0.45 at 212,097
 BLR_FROM_UNKNOWNS = 50_000
 # ``zeros="auto"`` drops a several-body Jacobian's exact zeros below this many unknowns.
-# Serial, the sandwich under the hemisphere (docs/performance.md): the same time either
-# way at 9,747 unknowns; at 53,391 dropping them made each Newton iteration's assembly
-# 4.3 times slower (new non-zeros allocated as contact spreads) and the linear solve no
-# faster; on small models (8,8,2) dropping them made the assembly 1.6 times faster
-DROP_ZEROS_BELOW = 10_000
+# The sandwich under the hemisphere (docs/performance.md): at 53,391 unknowns (serial)
+# dropping them made each Newton iteration's assembly 4.3 times slower (new non-zeros
+# allocated as contact spreads) and the linear solve no faster; at 11,907 (the default
+# mesh, 2 ranks) the run was 8% faster with them dropped, at 9,747 (serial) level, and on
+# small sandwiches (8,8,2) the assembly 1.6 times faster
+DROP_ZEROS_BELOW = 20_000
 
 
 @dataclass(frozen=True)
