@@ -423,7 +423,9 @@ class ImplicitSolver:
         ``per_iteration_ms`` divides each by the Newton iterations; ``linear_solver``
         names the solver used (``auto`` chosen for the model's size);
         ``jacobian_nonzeros`` is the entries the Jacobian stores at the end, over ranks,
-        ``jacobian_zeros`` whether its exact zeros were dropped or kept.
+        ``jacobian_zeros`` whether its exact zeros were dropped or kept,
+        ``jacobian_mallocs`` PETSc's count of allocations during the Jacobian's insertion
+        (MatGetInfo's ``mallocs``: entries outside the matrix's pattern).
         """
         comm = self.model.comm
 
@@ -438,10 +440,11 @@ class ImplicitSolver:
                  "linear_solve_s": mean(self._newton_s) - callbacks - inside,
                  "contact_s": contact}
         its = max(self._work_total, 1)
+        info = self.problem.A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)
         return {"linear_solver": self.options.linear_solver,
                 "jacobian_zeros": self.options.zeros,
-                "jacobian_nonzeros": int(self.problem.A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)
-                                         ["nz_used"]),
+                "jacobian_nonzeros": int(info["nz_used"]),
+                "jacobian_mallocs": int(info["mallocs"]),
                 "newton_iterations": self._work_total,
                 "newton_per_step": self._work_accepted / max(self._steps, 1),
                 "assembly_s": split["assembly_s"],
