@@ -20,9 +20,10 @@ BLR_FROM_UNKNOWNS = 50_000
 # ``zeros="auto"`` drops a several-body Jacobian's exact zeros below this many unknowns.
 # The sandwich under the hemisphere (docs/performance.md): at 53,391 unknowns (serial)
 # dropping them made each Newton iteration's assembly 4.3 times slower (new non-zeros
-# allocated inside the assembly as contact spreads) and the linear solve no faster; at 11,907 (the default
-# mesh, 2 ranks) the run was 8% faster with them dropped, at 9,747 (serial) level, and on
-# small sandwiches (8,8,2) the assembly 1.6 times faster
+# allocated inside the assembly as contact spreads) and the linear solve no faster; at
+# 11,907 (the default mesh, 2 ranks) the run was 8% faster with them dropped, at 9,747
+# (serial) level within the machine's noise; on small sandwiches (8,8,2) the assembly
+# 1.6 times faster
 DROP_ZEROS_BELOW = 20_000
 
 
