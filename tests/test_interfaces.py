@@ -92,9 +92,8 @@ def test_skin_sled_two_ranks_matches_serial(tmp_path):
 
 def test_the_sandwich_jacobian_without_its_zeros_gives_the_same_answer(tmp_path):
     """The three-body sled (skins on a core, small-sliding frictional interfaces) with the
-    several-body Jacobian's exact zeros left out (the default below 20,000 unknowns)
-    and kept
-    (``newton.zeros=keep``): the same load steps and Newton iterations, and the friction
+    several-body Jacobian's exact zeros left out (the default below 20,000 unknowns) and
+    kept (``newton.zeros=keep``): the same load steps and Newton iterations, and the friction
     ratio within 1e-9 (round-off of the LU on another pattern), while the matrix stores
     fewer entries (an interface's facet forms fill element matrices over both cells, most
     of them exact zeros under the vertex rule: measured 3.3 times fewer). A failure means

@@ -424,8 +424,8 @@ class ImplicitSolver:
         names the solver used (``auto`` chosen for the model's size);
         ``jacobian_nonzeros`` is the entries the Jacobian stores at the end, over ranks,
         ``jacobian_zeros`` whether its exact zeros were dropped or kept,
-        ``jacobian_mallocs`` PETSc's count of allocations during the Jacobian's insertion
-        (MatGetInfo's ``mallocs``: entries outside the matrix's pattern).
+        ``jacobian_mallocs`` PETSc's count of allocations while entries were inserted into
+        the Jacobian over the run (MatGetInfo's ``mallocs``: entries outside its pattern).
         """
         comm = self.model.comm
 
