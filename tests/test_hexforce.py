@@ -207,3 +207,49 @@ def test_element_frequency_bound_covers_the_stable_step():
         m = BodyState("core", body, []).m_phys
         top = np.max(np.linalg.eigvals(K / m[:, None]).real)
         assert loop.omega2 >= top, (integration, loop.omega2, top)
+
+
+@pytest.mark.parametrize("erodes", [True, False])
+def test_an_inverted_element_erodes_only_where_asked(erodes):
+    """``erode_inverted`` erodes the points of an inverted element of an eroding body.
+
+    Three fracturing P1 hexahedra along x; the last is folded back through itself
+    (its far face moved past its near one: det F < 0 at each of its points), the
+    others stretched 1% (below the fracture strain). Without
+    the option the loops report the inverted element (the run stops). With it, an
+    eroding body (erosion on) erodes exactly those 8 points, marks them as eroded on
+    inversion (``inverted_points_eroded`` 8), and they carry no force: the nodes of the
+    far face get none. A body that does not erode still stops. A failure means an
+    inverted element is erased where it should stop the run, or erodes other points, or
+    still pushes its nodes.
+    """
+    from mpi4py import MPI
+
+    from forming.bodies.hexforce import inverted_erosions
+    from forming.errors import KernelFailure
+    from forming.materials.fracture import FracturingSolid
+
+    material = FracturingSolid(IsotropicElasticity(410.0, 0.21), erosion=erodes,
+                               density=7.4e-10)
+    body = _body(material, size=(30.0, 10.0, 10.0), cells=(3, 1, 1))
+    X = body.V.tabulate_dof_coordinates()
+    u = np.zeros_like(X)
+    u[:, 0] = 0.01 * X[:, 0]  # the first two cells stretched 1%
+    far = np.isclose(X[:, 0], 30.0)
+    u[far, 0] = -15.0  # past the last cell's near face at x = 20
+    for erode in (False, True):
+        loop = body.explicit_internal_force("full", 0.0, 7.4e-10, erode_inverted=erode)
+        if not (erode and erodes):
+            with pytest.raises(KernelFailure, match="inverted"):
+                _forces(body, loop, u.ravel())
+            continue
+        f = _forces(body, loop, u.ravel()).reshape(-1, 3)
+        hist = body.plastic.ep
+        centres = X[body.V.dofmap.list[body.point_cells]].mean(axis=1)
+        eroded = hist[:, 4] > 0
+        assert np.count_nonzero(eroded) == 8 and np.all(hist[eroded, 5] == 1.0)
+        assert np.array_equal(eroded.reshape(-1, 8).all(axis=1), centres[:, 0] > 20.0)
+        assert inverted_erosions([loop], MPI.COMM_WORLD) == {
+            "inverted_points_eroded": 8, "inverted_points_eroded_core": 8}
+        assert np.max(np.abs(f[far])) == 0.0
+        assert np.max(np.abs(f)) > 0.0  # the other cells are stretched and push back

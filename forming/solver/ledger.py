@@ -17,6 +17,8 @@ from mpi4py import MPI
 _KEYS = ("internal", "external", "friction", "damping")
 IE_FLOOR = 0.05  # internal energy, as a share of the run's largest, below which no ratio counts
 LOAD_FLOOR = 0.05  # load parameter below which no ratio counts
+KE_BLOWUP = 2.0  # kinetic energy over the external work past which a run blew up
+KE_FLOOR = 1e-9  # kinetic energy [N mm] below which nothing blew up (a run's start)
 
 
 @dataclass
@@ -57,8 +59,12 @@ class EnergyLedger:
         p[3] += damping
 
     def close_interval(self, comm: MPI.Comm, kinetic: float, hourglass: float,
-                       load: float) -> None:
+                       load: float) -> str:
         """Sum the interval's works over ranks; record the energies and the row.
+
+        Returns:
+            "" or, where the integration blew up, why (:meth:`blown_up`); the caller
+            then fails the interval, and its restore returns the ledger to the start.
 
         Args:
             comm: The model's communicator.
@@ -76,6 +82,25 @@ class EnergyLedger:
         e["kinetic"], e["hourglass"] = float(total[4]), float(total[5])
         self.rows = np.vstack([self.rows, [load, e["kinetic"], e["internal"], e["hourglass"]]])
         self.balance_max = max(self.balance_max, abs(self.balance()))
+        return self.blown_up()
+
+    def blown_up(self) -> str:
+        """Why the energies show a blown-up integration ("" where they do not).
+
+        Kinetic + internal + friction + damping energy equals the external work, and
+        none of the last three can be negative for the materials and interfaces of a
+        scene; so the kinetic energy cannot exceed the external work. Past
+        :data:`KE_BLOWUP` times it, energy came from the integration itself (an element
+        inverted or eroded under load, a time step above the stable one): the internal
+        energy then runs negative as fast as the kinetic one grows, and the balance,
+        made of the same forces, still closes.
+        """
+        e = self.energy
+        if e["kinetic"] <= max(KE_BLOWUP * abs(e["external"]), KE_FLOOR):
+            return ""
+        return (f"unstable: the kinetic energy ({e['kinetic']:.4g} N mm) is more than "
+                f"{KE_BLOWUP:g} times the external work ({e['external']:.4g} N mm), with an "
+                f"internal energy of {e['internal']:.4g} N mm: the integration blew up")
 
     def _ratio_max(self, column: int) -> float:
         r = self.rows
@@ -131,14 +156,17 @@ class EnergyLedger:
         return self.balance_max / ext if ext > 0 else 0.0
 
 
-def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float) -> list[str]:
-    """What an explicit run warns about: inertia, added mass, hourglass energy.
+def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float,
+                 erosions: dict[str, int] | None = None) -> list[str]:
+    """What an explicit run warns about: inertia, added mass, hourglass energy, erosion.
 
     Args:
         led: The run's energy ledger.
         opts: Its explicit options (:class:`~forming.solver.options.ExplicitOptions`).
         mass_added: The mass scaling added, as a fraction of the mass.
         mass_limit: The added fraction above which a run is flagged.
+        erosions: ``inverted_points_eroded`` (points eroded where their element inverted),
+            if any body may erode them.
     """
     out = []
     if led.ke_ie_max > opts.quasi_static_limit:
@@ -153,4 +181,7 @@ def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float) 
         out.append(f"explicit: hourglass energy reached {led.hg_ie_max:.1%} of the "
                    f"internal energy (limit {opts.hourglass_limit:.0%}): refine the mesh, "
                    "raise explicit.hourglass or use explicit.integration=full")
+    if eroded := (erosions or {}).get("inverted_points_eroded", 0):
+        out.append(f"explicit: {eroded} integration points eroded where their element "
+                   "inverted (explicit.erode_inverted): the mass and stiffness there are gone")
     return out
