@@ -67,8 +67,9 @@ def test_a_blown_up_run_is_told_from_a_dynamic_one():
     """Kinetic energy above twice the external work fails the interval; below, it does not.
 
     The last intervals of a measured run that blew up (``meso_compression``, 3 x 3 cells
-    with dummy flanges deleted, touching platen, explicit, inverted points eroded;
-    docs/validation.md): at 1.92 mm KE 131.8, IE 1,515.1, friction 20.1, external work
+    with dummy flanges deleted, touching platen, explicit, with inverted points eroded by
+    the trial option of commit 3ec6238, since dropped; docs/performance.md, 'Tried and
+    dropped (2026-11-29)'): at 1.92 mm KE 131.8, IE 1,515.1, friction 20.1, external work
     1,667.0 N mm (dynamic, KE/IE 8.7%, but energy conserved); at 1.96 mm KE 7.71e6 and
     IE -7.65e6 N mm for an external work of 1,703.9 N mm. A quasi-static interval with no
     work yet is not flagged either. A failure means a blown-up explicit run is reported

@@ -110,7 +110,7 @@ class DeformableBody(Protocol):
         """Stiffness-proportional damping forces at velocities ``v``, or None (explicit runs)."""
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
-                                plastic_floor: float = 0.3, erode_inverted: bool = False):
+                                plastic_floor: float = 0.3):
         """Element loops for the explicit solver, or None to use the form.
 
         The loops are a :class:`~forming.bodies.hexforce.HexInternalForce`.
@@ -186,9 +186,9 @@ class BodyBase:
         del v, beta, w
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
-                                plastic_floor: float = 0.3, erode_inverted: bool = False):
+                                plastic_floor: float = 0.3):
         """None: the explicit solver assembles this body's internal forces from its form."""
-        del integration, hourglass, density, plastic_floor, erode_inverted
+        del integration, hourglass, density, plastic_floor
 
     def cell_fields(self) -> dict[str, np.ndarray]:
         """No cell-wise results in ``final_shape.npz``."""

@@ -114,23 +114,6 @@ def mode_stiffness(gamma: np.ndarray, grads: np.ndarray, weights: np.ndarray,
     return out
 
 
-def inverted_erosions(loops: list[HexInternalForce], comm) -> dict[str, int]:
-    """Points eroded where their element inverted (``explicit.erode_inverted``), all ranks.
-
-    ``inverted_points_eroded`` and, per eroding body, ``inverted_points_eroded_<body>``.
-    Read from the bodies' damage histories, so a restarted run counts those of its first
-    part too. Collective; empty unless a loop erodes them.
-    """
-    mine = [loop for loop in loops if loop.erode_inverted]
-    if not mine:
-        return {}
-    local = np.array([np.count_nonzero(loop.ep[:, 5] > 0.0) for loop in mine])
-    counts = comm.allreduce(local, op=MPI.SUM)
-    return {"inverted_points_eroded": int(counts.sum())} | {
-        f"inverted_points_eroded_{loop.body.name}": int(n)
-        for loop, n in zip(mine, counts, strict=True)}
-
-
 def loop_timing(loops: list[HexInternalForce], comm) -> dict[str, float]:
     """The element loops' wall time on the busiest rank, and that over the ranks' mean.
 
@@ -156,9 +139,6 @@ class HexInternalForce:
         hourglass: Hourglass coefficient ``kappa`` of the reduced element (>= 0).
         density: Mass density [t/mm^3] (the element frequency bound).
         plastic_floor: Smallest tangent ratio of a plastically flowing element.
-        erode_inverted: Erode the points where an element of an eroding body inverts
-            instead of failing (:class:`~forming.solver.options.ExplicitOptions`); they
-            are marked in the last column of the damage history, which was unused.
 
     Raises:
         InputError: Not a hexahedral body of degree 1 or 2, reduced integration of a
@@ -166,7 +146,7 @@ class HexInternalForce:
     """
 
     def __init__(self, body, integration: str, hourglass: float, density: float,
-                 plastic_floor: float = 0.3, erode_inverted: bool = False):
+                 plastic_floor: float = 0.3):
         degree = body.spec.degree
         if body.mesh.topology.cell_name() != "hexahedron" or degree not in (1, 2):
             raise InputError(f"body.{body.name}",
@@ -221,7 +201,6 @@ class HexInternalForce:
         self.stress = np.zeros((n, 6))
         ps = body.plastic
         self.damaging = body.damaging
-        self.erode_inverted = erode_inverted and body.erodes
         self._cells = body.band_geometry  # None unless it fractures
         if ps is not None and not self.reduced:  # the body's own points: its own arrays
             self.ep, self.evp, self.ep_trial, self.evp_trial = (
@@ -278,9 +257,6 @@ class HexInternalForce:
         inverted = self.detf <= 0.0
         if self.damaging:  # an eroded point's shape is no longer checked
             inverted &= body.active_points()
-            if self.erode_inverted and inverted.any():  # from this increment on
-                self.ep[inverted, 4] = self.ep[inverted, 5] = 1.0
-                inverted[:] = False
         if inverted.any():
             return (f"{int(np.count_nonzero(inverted))} integration points: inverted "
                     f"elements (det F <= 0) in body {body.name!r}{body.locate(inverted)}")

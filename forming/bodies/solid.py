@@ -226,8 +226,7 @@ class SolidBody(BodyBase):
         return (self.domain.layout(self.V), plastic, self.domain.layout(self.QS))
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
-                                plastic_floor: float = 0.3,
-                                erode_inverted: bool = False) -> HexInternalForce | None:
+                                plastic_floor: float = 0.3) -> HexInternalForce | None:
         """Element loops for the explicit solver on hexahedra; None: use the forms.
 
         ``integration`` applies to P1 hexahedra; P2 ones (the meso-scale walls) are
@@ -237,8 +236,7 @@ class SolidBody(BodyBase):
             return None
         if self.spec.degree == 2:
             integration = "full"
-        return HexInternalForce(self, integration, hourglass, density, plastic_floor,
-                                erode_inverted)
+        return HexInternalForce(self, integration, hourglass, density, plastic_floor)
 
     @property
     def band_geometry(self) -> tuple[np.ndarray, int] | None:

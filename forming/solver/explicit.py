@@ -10,12 +10,13 @@ predict, solve, accept or roll back, output) is shared with the implicit solver.
 
 Within an increment nothing is assembled through forms where compiled loops exist: a
 solid on hexahedra computes its internal forces element by element
-(:class:`~forming.bodies.hexforce.HexInternalForce`, full or reduced integration), a tool
-contact node by node (:class:`~forming.contact.nodal.NodalContact`); fabric skins,
-interfaces and loads from their forms. Works are summed over ranks once per output
-interval (:class:`~forming.solver.ledger.EnergyLedger`).
+(:class:`~forming.bodies.hexforce.HexInternalForce`, full or reduced integration), and
+a tool contact node by node (:class:`~forming.contact.nodal.NodalContact`); fabric
+skins, interfaces and distributed loads are assembled from their forms. Works are summed
+over ranks once per output interval (:class:`~forming.solver.ledger.EnergyLedger`).
 
-The load parameter follows a smooth step over ``loading_time`` or a ramp (theory §12).
+The load parameter ``s(tau)`` follows a smooth step over ``loading_time`` seconds (no
+velocity or acceleration at the ends) or a ramp: docs/theory.md, section 12.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat, signals  # noqa: F401
-from forming.bodies.hexforce import inverted_erosions, loop_timing
+from forming.bodies.hexforce import loop_timing
 from forming.contact.selfcontact import SelfContactTerm
 from forming.errors import InputError, KernelFailure
 from forming.model import Model
@@ -86,8 +87,8 @@ class ExplicitSolver:
         emaps = model.entity_maps or None
         # internal forces: element loops where the body has them, else its form
         self._loops = {st.name: st.body.explicit_internal_force(
-            opts.integration, opts.hourglass, body_density(st.body), opts.hourglass_plastic,
-            opts.erode_inverted) for st in self.states}
+            opts.integration, opts.hourglass, body_density(st.body), opts.hourglass_plastic)
+            for st in self.states}
         self._loop_list = [loop for loop in self._loops.values() if loop is not None]
         self._internal = {n: fem.form(b.residual(tests[n]), entity_maps=emaps)
                           for n, b in model.bodies.items() if self._loops[n] is None}
@@ -459,9 +460,9 @@ class ExplicitSolver:
                 "quasi_static": led.ke_ie_max <= self.options.quasi_static_limit,
                 "hourglass_energy_fraction": led.hg_ie_max,
                 "mass_added_fraction": self.mass_added_fraction,
-                "energy_balance_error_rel": led.balance_error()} | (
-                    {"self_contact_penetration_max_mm": max(sc.deepest for sc in selves)}
-                    if selves else {}) | inverted_erosions(self._loop_list, self.comm)
+                "energy_balance_error_rel": led.balance_error(),
+                } | ({"self_contact_penetration_max_mm": max(sc.deepest for sc in selves)}
+                     if selves else {})
 
     def timing(self) -> dict[str, float]:
         """Figures for ``summary.json`` timing.
@@ -492,9 +493,8 @@ class ExplicitSolver:
                 "hourglass_below_limit": led.hg_ie_max <= opts.hourglass_limit}
 
     def warnings(self) -> list[str]:
-        """Not quasi-static, much mass added, hourglass, inverted points eroded (collective)."""
-        return run_warnings(self.ledger, self.options, self.mass_added_fraction,
-                            MASS_ADDED_LIMIT, inverted_erosions(self._loop_list, self.comm))
+        """A run that is not quasi-static, that added much mass or hourglassed."""
+        return run_warnings(self.ledger, self.options, self.mass_added_fraction, MASS_ADDED_LIMIT)
 
     def close(self) -> None:
         """Nothing: no PETSc solver (the element loops and contacts are its own)."""

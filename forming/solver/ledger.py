@@ -156,17 +156,14 @@ class EnergyLedger:
         return self.balance_max / ext if ext > 0 else 0.0
 
 
-def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float,
-                 erosions: dict[str, int] | None = None) -> list[str]:
-    """What an explicit run warns about: inertia, added mass, hourglass energy, erosion.
+def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float) -> list[str]:
+    """What an explicit run warns about: inertia, added mass, hourglass energy.
 
     Args:
         led: The run's energy ledger.
         opts: Its explicit options (:class:`~forming.solver.options.ExplicitOptions`).
         mass_added: The mass scaling added, as a fraction of the mass.
         mass_limit: The added fraction above which a run is flagged.
-        erosions: ``inverted_points_eroded`` (points eroded where their element inverted),
-            if any body may erode them.
     """
     out = []
     if led.ke_ie_max > opts.quasi_static_limit:
@@ -181,7 +178,4 @@ def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float,
         out.append(f"explicit: hourglass energy reached {led.hg_ie_max:.1%} of the "
                    f"internal energy (limit {opts.hourglass_limit:.0%}): refine the mesh, "
                    "raise explicit.hourglass or use explicit.integration=full")
-    if eroded := (erosions or {}).get("inverted_points_eroded", 0):
-        out.append(f"explicit: {eroded} integration points eroded where their element "
-                   "inverted (explicit.erode_inverted): the mass and stiffness there are gone")
     return out

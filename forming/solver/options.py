@@ -236,13 +236,6 @@ class ExplicitOptions:
             ratio is floored here): lower follows crushing more closely, higher keeps
             crushing elements from inverting (docs/theory.md section 12).
         hourglass_limit: Hourglass over internal energy above which a run is flagged.
-        erode_inverted: Erode an integration point of an eroding body (a fracturing
-            solid with erosion or a deletion strain) whose element inverts there
-            (det F <= 0) instead of stopping the run, as LS-DYNA's ``ERODE`` of
-            ``*CONTROL_TIMESTEP`` deletes solids of negative volume; the body's
-            ``element_deletion`` rule then applies. Counted in
-            ``metrics.inverted_points_eroded`` and warned of. Other bodies still stop
-            the run. False (default): an inverted element stops the run.
     """
 
     loading_time: float = 0.05
@@ -261,7 +254,6 @@ class ExplicitOptions:
     hourglass: float = 0.1
     hourglass_plastic: float = 0.3
     hourglass_limit: float = 0.05
-    erode_inverted: bool = False
 
     def __post_init__(self) -> None:
         if self.integration not in ("reduced", "full"):
