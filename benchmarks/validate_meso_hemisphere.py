@@ -151,8 +151,8 @@ def main() -> None:
     cost = ["## `meso_hemisphere`: cost", "",
             "Written by `python benchmarks/validate_meso_hemisphere.py` (docs/validation.md, "
             f"`meso_hemisphere`, has the results); {machine()}. Each meso run on one rank; "
-            "the two ran at once, and beside a 2-rank `meso_crushing` run for their first "
-            "part (the wall times are of a shared machine).", "",
+            "the two run at once (each has a core), then the macro runs (the wall times "
+            "are of a machine with both cores busy).", "",
             "| run | status | load reached | elements | work | "
             "us per element-increment | wall [s] |", "|---|---|---|---|---|---|---|"]
     for name in RUNS:
