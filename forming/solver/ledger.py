@@ -62,15 +62,15 @@ class EnergyLedger:
                        load: float) -> str:
         """Sum the interval's works over ranks; record the energies and the row.
 
-        Returns:
-            "" or, where the integration blew up, why (:meth:`blown_up`); the caller
-            then fails the interval, and its restore returns the ledger to the start.
-
         Args:
             comm: The model's communicator.
             kinetic: Kinetic energy now (of this rank's nodes).
             hourglass: Hourglass energy now (of this rank's elements).
             load: Load parameter now.
+
+        Returns:
+            "" or, where the integration blew up, why (:meth:`blown_up`); the caller
+            then fails the interval, and its restore returns the ledger to the start.
         """
         local = np.concatenate([self._pending, [kinetic, hourglass]])
         total = np.zeros_like(local)
