@@ -66,7 +66,7 @@ FLANGE_RUNS = (("flange-3-3", "dummies kept (the case's default)", ()),
                 "paper's were (`dummy_deletion=true`)", ("dummy_deletion=true",)))
 
 
-class FolderRow:
+class _Row:
     """A run's folder and status, as :func:`status_text` and :func:`curve` read them."""
 
     def __init__(self, folder: Path, summary: dict):
@@ -105,7 +105,7 @@ def main() -> None:
     if not done:
         sys.exit("no run of the study has metrics yet")
     ref_cells, _, ref_folder, ref_summary = done[-1]
-    e_ref, s_ref = curve(FolderRow(ref_folder, ref_summary), ref_summary)
+    e_ref, s_ref = curve(_Row(ref_folder, ref_summary), ref_summary)
     lines = ["## Meso patch size: is 3 x 3 cells a representative volume? (issue 20)", "",
              "`meso_compression` with fracturing walls that touch each other, bonded "
              "platens, explicit (`" + " ".join(f"--set {x}" for x in SETS) + "`): a 10 mm "
@@ -128,13 +128,13 @@ def main() -> None:
         if not m:
             lines.append(_missing_row(label, ranks, folder, summary, 10))
             continue
-        e, s = curve(FolderRow(folder, summary), summary)
+        e, s = curve(_Row(folder, summary), summary)
         band = (e >= AFTER[0]) & (e <= AFTER[1])
         after = float(s[band].mean()) if band.any() else float("nan")
         rms, common = _rms_against(e, s, e_ref, s_ref)
         timing = summary["timing"]
         lines.append(
-            f"| {label} | {ranks} | {status_text(FolderRow(folder, summary), summary)} "
+            f"| {label} | {ranks} | {status_text(_Row(folder, summary), summary)} "
             f"| {m['final_strain']:.4f} | {timing.get('elements', '')} "
             f"| {np.interp(0.05, e, s):.3f} "
             f"| {m['peak_stress_MPa']:.3f} at {m['peak_strain']:.4f} "
@@ -188,7 +188,7 @@ def main() -> None:
             for folder, summary, _what, extra in flanges]:
         t = summary.get("timing", {})
         cost.append(f"| {cells.replace(',', ' x ')} | {ranks} "
-                    f"| {status_text(FolderRow(folder, summary), summary)} "
+                    f"| {status_text(_Row(folder, summary), summary)} "
                     f"| {t.get('elements', '')} | {t.get('time_steps', '')} "
                     f"| {us_text(folder, summary)} | {wall_text(folder, summary)} |")
     update_section("meso_rve_cost", "\n".join(cost), PERFORMANCE_MD)
@@ -216,7 +216,7 @@ def run_or_reuse(folder: Path, ranks: int, sets: tuple[str, ...], report: bool) 
 
 def _missing_row(label: str, ranks: int, folder: Path, summary: dict, blanks: int) -> str:
     """A table row for a run without metrics: its status, then ``blanks`` empty cells."""
-    return (f"| {label} | {ranks} | {status_text(FolderRow(folder, summary), summary)} |"
+    return (f"| {label} | {ranks} | {status_text(_Row(folder, summary), summary)} |"
             + " |" * blanks)
 
 
@@ -265,7 +265,7 @@ def flange_lines(flanges: list[tuple[Path, dict, str, tuple]]) -> list[str]:
             continue
         m = summary.get("metrics", {})
         lines.append(
-            f"- {what}: {status_text(FolderRow(folder, summary), summary)}; strain reached "
+            f"- {what}: {status_text(_Row(folder, summary), summary)}; strain reached "
             f"{m.get('final_strain', float('nan')):.3f}, peak "
             f"{m.get('peak_stress_MPa', float('nan')):.2f} MPa at "
             f"{m.get('peak_strain', float('nan')):.3f}, kinetic energy up to "
@@ -338,13 +338,13 @@ def densification_lines(dense: list[tuple[str, int, Path, dict]]) -> list[str]:
         if not m:
             lines.append(_missing_row(label, ranks, folder, summary, 10))
             continue
-        e, s = curve(FolderRow(folder, summary), summary)
+        e, s = curve(_Row(folder, summary), summary)
         plateau, onset = regions(e, s, m["peak_strain"])
         at = [float(np.interp(x, e, s)) if e[-1] >= x else float("nan")
               for x in (0.6, 0.7, 0.75)]
         t = summary["timing"]
         lines.append(
-            f"| {label} | {ranks} | {status_text(FolderRow(folder, summary), summary)} "
+            f"| {label} | {ranks} | {status_text(_Row(folder, summary), summary)} "
             f"| {m['peak_stress_MPa']:.3f} at {m['peak_strain']:.4f} | {plateau:.3f} "
             f"| {onset:.3f} | {at[0]:.3f} / {at[1]:.3f} / {at[2]:.3f} "
             f"| {m['final_strain']:.4f} | {m.get('self_contact_penetration_max_mm', 0):.4f} "
