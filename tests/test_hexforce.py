@@ -207,3 +207,22 @@ def test_element_frequency_bound_covers_the_stable_step():
         m = BodyState("core", body, []).m_phys
         top = np.max(np.linalg.eigvals(K / m[:, None]).real)
         assert loop.omega2 >= top, (integration, loop.omega2, top)
+
+
+def test_one_point_crushing_is_flagged_in_the_run_s_warnings():
+    """A crushable core on one-point elements gets a warning in ``summary.json``, a full
+    or an elastic one does not. One point per element misses the crushing where the core
+    bends within an element (docs/validation.md, "Where the core crushes": on the
+    hemisphere 0-57% of the full element's crushed volume); a failure means a user can take
+    such a run's crushed volume without being told."""
+    from forming.solver.ledger import EnergyLedger, run_warnings
+
+    crushable = _body(honeycomb_core("isotropic", plastic=True))
+    elastic = _body(honeycomb_core("isotropic", plastic=False))
+    assert crushable.explicit_internal_force("reduced", 0.1, DENSITY).crushes_at_one_point
+    assert not crushable.explicit_internal_force("full", 0.1, DENSITY).crushes_at_one_point
+    assert not elastic.explicit_internal_force("reduced", 0.1, DENSITY).crushes_at_one_point
+    opts, quiet = ExplicitOptions(integration="reduced"), EnergyLedger()
+    assert run_warnings(quiet, opts, 0.0, 0.05) == []
+    (warning,) = run_warnings(quiet, opts, 0.0, 0.05, one_point_crushing=True)
+    assert "integration=reduced" in warning and "explicit.integration=full" in warning

@@ -276,6 +276,11 @@ class HexInternalForce:
         return ""
 
     @property
+    def crushes_at_one_point(self) -> bool:
+        """A one-point element of a material that crushes (its crushing is one value)."""
+        return self.reduced and self._curve is not None
+
+    @property
     def hourglass_energy(self) -> float:
         """Hourglass energy of the rank's elements at the last evaluation [N mm]."""
         return float(self.hg_energy.sum())

@@ -477,8 +477,7 @@ class ExplicitSolver:
                "integration_s": self.integration_seconds, "elements": n_el}
         out |= self.model.search_timing() | loop_timing(self._loop_list, self.comm)
         if self.steps_run:
-            out["us_per_element_increment"] = (1e6 * self.integration_seconds
-                                               / (self.steps_run * n_el))
+            out["us_per_element_increment"] = 1e6 * self.integration_seconds / self.steps_run / n_el
         return out
 
     def parameters(self) -> dict:
@@ -494,7 +493,8 @@ class ExplicitSolver:
 
     def warnings(self) -> list[str]:
         """A run that is not quasi-static, that added much mass or hourglassed."""
-        return run_warnings(self.ledger, self.options, self.mass_added_fraction, MASS_ADDED_LIMIT)
+        return run_warnings(self.ledger, self.options, self.mass_added_fraction, MASS_ADDED_LIMIT,
+                            any(loop.crushes_at_one_point for loop in self._loop_list))
 
     def close(self) -> None:
         """Nothing: no PETSc solver (the element loops and contacts are its own)."""

@@ -156,7 +156,8 @@ class EnergyLedger:
         return self.balance_max / ext if ext > 0 else 0.0
 
 
-def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float) -> list[str]:
+def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float,
+                 one_point_crushing: bool = False) -> list[str]:
     """What an explicit run warns about: inertia, added mass, hourglass energy.
 
     Args:
@@ -164,6 +165,9 @@ def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float) 
         opts: Its explicit options (:class:`~forming.solver.options.ExplicitOptions`).
         mass_added: The mass scaling added, as a fraction of the mass.
         mass_limit: The added fraction above which a run is flagged.
+        one_point_crushing: A crushable body has one-point (reduced) elements: its
+            crushing where it bends within an element is missed (docs/validation.md,
+            "Where the core crushes").
     """
     out = []
     if led.ke_ie_max > opts.quasi_static_limit:
@@ -178,4 +182,9 @@ def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float) 
         out.append(f"explicit: hourglass energy reached {led.hg_ie_max:.1%} of the "
                    f"internal energy (limit {opts.hourglass_limit:.0%}): refine the mesh, "
                    "raise explicit.hourglass or use explicit.integration=full")
+    if one_point_crushing:
+        out.append("explicit: integration=reduced with a crushable core: one point per "
+                   "element does not crush where the core bends within an element (on the "
+                   "hemisphere 0-57% of the fully integrated crushed volume, "
+                   "docs/validation.md); take crushing from explicit.integration=full")
     return out
