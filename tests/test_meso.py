@@ -238,6 +238,7 @@ def test_stabilisation_input_and_solver():
 
 
 @pytest.mark.slow
+@pytest.mark.mpi
 def test_fracturing_walls_peak_and_soften(tmp_path):
     """One cell's worth of fracturing walls (a 1 x 1 patch, the default 20 mm and mesh)
     on 2 ranks, to 10% nominal strain: the walls buckle, their folds break at the 0.067

@@ -83,6 +83,7 @@ def test_elastic_slip_sets_the_stick_compliance(tmp_path):
                                                           rel=0.03)
 
 
+@pytest.mark.mpi
 def test_large_slip_sled_on_two_ranks_equals_serial(tmp_path):
     """The sled on two ranks (the master surface gathered on both, slave nodes split):
     the same forces as in serial (1e-6 relative), so nothing of the contact depends on
@@ -213,6 +214,7 @@ def test_ironing_forces_are_smooth_and_frictional(tmp_path):
     assert m["penetration_max_mm"] < 0.01 * 40.0 / 16
 
 
+@pytest.mark.mpi
 def test_contact_patch_explicit_on_two_ranks(tmp_path):
     """The patch test with the explicit solver (pure penalty, 1 MPa ramped over 0.01 s,
     2299 increments), serial and on two ranks: quasi-static (kinetic energy 0.4% of the
@@ -294,6 +296,7 @@ def test_hemisphere_springs_stiffen_where_a_step_cannot_be_cut(tmp_path):
     assert f == pytest.approx(f_ref, rel=0.01)
 
 
+@pytest.mark.mpi
 def test_sliding_restart_on_two_ranks_equals_the_uninterrupted_run(tmp_path):
     """The sled (14 mm drag, stabilised) stopped after 7 steps with a checkpoint every 3,
     then restarted from step 6 on two ranks (``--restart``): every history row equals the
@@ -316,6 +319,7 @@ def test_sliding_restart_on_two_ranks_equals_the_uninterrupted_run(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.mpi
 def test_hemisphere_with_sliding_skins_on_two_ranks_equals_serial(tmp_path):
     """The same 8 x 8 x 2 hemisphere with finite skins and holder with ``mpirun -n 2``:
     it completes with the serial run's history, forces within 1e-6 relative (measured
