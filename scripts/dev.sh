@@ -158,27 +158,11 @@ case "$cmd" in
         warm_kernels
         # Two workers (CI has two cores; FORMING_TEST_WORKERS=0 runs them in this process),
         # each test given to whichever worker is free, so the longest ones do not queue.
-        workers="${FORMING_TEST_WORKERS:-2}"
-        run_pytest() {
-            local r=0
-            "$venv/bin/python" -m pytest "$@" || r=$?
-            if [[ $r -eq 5 ]]; then
-                echo "dev.sh: error: pytest collected no tests (exit 5); failing so CI cannot pass silently" >&2
-                r=1
-            fi
-            [[ $rc -eq 0 ]] && rc=$r
-            return 0
-        }
-        if [[ $# -eq 0 ]]; then
-            # The whole suite in two parts: the tests that run in their worker's process,
-            # then those that launch `mpirun -n 2` (marker mpi) one at a time, each with
-            # both cores. Two MPI tests side by side are four busy processes on two
-            # cores: a 21 s test took 60-78 s so (2026-11-30; the suite 655 s in two parts
-            # against 675 and 718 s in one, docs/performance.md, "The test suite").
-            run_pytest -n "$workers" --dist worksteal -m "not slow and not mpi"
-            run_pytest -m "mpi and not slow"
-        else
-            run_pytest -n "$workers" --dist worksteal "$@"
+        "$venv/bin/python" -m pytest -n "${FORMING_TEST_WORKERS:-2}" --dist worksteal "$@" \
+            || { r=$?; [[ $rc -eq 0 ]] && rc=$r; }
+        if [[ $rc -eq 5 ]]; then
+            echo "dev.sh: error: pytest collected no tests (exit 5); failing so CI cannot pass silently" >&2
+            exit 1
         fi
         exit "$rc"
         ;;

@@ -28,11 +28,10 @@ def _launchers(tree: ast.Module) -> set[str]:
 
 
 def test_every_test_that_launches_mpirun_is_marked_mpi():
-    """``scripts/dev.sh test`` runs the tests marked ``mpi`` after the others, one at a
-    time: two ``mpirun -n 2`` side by side are four busy processes on CI's two cores
-    (a 21 s test took 60-78 s so). A failure names a test that calls ``run_mpi`` (itself
-    or through a helper of its module) without the marker, which would run beside
-    another worker's tests."""
+    """The marker says which tests launch ``mpirun -n 2`` (``-m mpi`` selects them, ``-m
+    "not mpi"`` leaves them out, on a machine or in an environment without MPI). A
+    failure names a test that calls ``run_mpi`` (itself or through a helper of its
+    module) without the marker."""
     unmarked = []
     for path in sorted((REPO / "tests").glob("test_*.py")):
         tree = ast.parse(path.read_text())
