@@ -492,7 +492,7 @@ class ExplicitSolver:
                 "hourglass_below_limit": led.hg_ie_max <= opts.hourglass_limit}
 
     def warnings(self) -> list[str]:
-        """A run that is not quasi-static, that added much mass or hourglassed."""
+        """Not quasi-static, much added mass, hourglassing, one-point crushing."""
         return run_warnings(self.ledger, self.options, self.mass_added_fraction, MASS_ADDED_LIMIT,
                             any(loop.crushes_at_one_point for loop in self._loop_list))
 

@@ -158,7 +158,7 @@ class EnergyLedger:
 
 def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float,
                  one_point_crushing: bool = False) -> list[str]:
-    """What an explicit run warns about: inertia, added mass, hourglass energy.
+    """What an explicit run warns about: inertia, added mass, hourglassing, one point.
 
     Args:
         led: The run's energy ledger.
