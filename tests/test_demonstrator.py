@@ -383,6 +383,7 @@ def test_the_blank_is_held_along_the_closing_direction_from_the_first_step(tmp_p
 
     case = load_case("demonstrator")
     job = case.build(case.Params(element_size=60.0))
+    assert job.cautions == ()  # (the floating start's caution: the test below)
     x = job.scene.mesh.mesh.geometry.x
     lower, upper = (t.shape for t in job.scene.tools)
     assert abs(upper.gap_normal(x[np.isclose(x[:, 2], x[:, 2].max())])[0].min()) < 1e-9
@@ -404,11 +405,10 @@ def test_a_floating_blank_is_flagged_in_the_run_s_warnings():
     """With ``clearance > 0`` the blank starts below the open upper tool, held by nothing
     along z: its height, and from there the step path, follow round-off (the test above).
     The job carries a caution that the run writes to summary.json's warnings; the
-    default start carries none. A failure means a user can float the blank and get
-    rank-dependent answers without being told."""
+    default start carries none (asserted by the test above, which builds it). A failure
+    means a user can float the blank and get rank-dependent answers without being told."""
     from forming.case import load_case
 
     case = load_case("demonstrator")
-    assert case.build(case.Params(element_size=60.0)).cautions == ()
     (caution,) = case.build(case.Params(element_size=60.0, clearance=1.0)).cautions
     assert "clearance = 1 mm" in caution and "round-off" in caution
