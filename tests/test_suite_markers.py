@@ -18,8 +18,8 @@ def _marks(node: ast.FunctionDef) -> set[str]:
 
 
 def _launchers(tree: ast.Module) -> set[str]:
-    """Module-level functions (and the module's tests) that call ``run_mpi``."""
-    names = set()
+    """``run_mpi`` and the module-level functions that call it."""
+    names = {"run_mpi"}
     for node in tree.body:
         if isinstance(node, ast.FunctionDef) and any(
                 isinstance(n, ast.Name) and n.id == "run_mpi" for n in ast.walk(node)):
