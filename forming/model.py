@@ -319,12 +319,14 @@ class Model:
         tests = self.test_functions()
         return [b.residual(tests[n]) for n, b in self.bodies.items()]
 
-    def jacobians(self, stiffest: bool = False) -> list[list[ufl.Form | None]]:
+    def jacobians(self, stiffest: bool = False,
+                  own: bool = True) -> list[list[ufl.Form | None]]:
         """Blocks ``J[i][j] = dF_i/du_j`` (None where body j does not enter F_i).
 
         Diagonal blocks use each body's consistent tangent (``stiffest``: its
         :meth:`stability_jacobian`, for the explicit time step); contact, traction-free
-        interface and coupling terms are differentiated by UFL.
+        interface and coupling terms are differentiated by UFL. ``own=False`` leaves
+        the bodies' own tangents out (the solver computes them without forms).
         """
         tests = self.test_functions()
         trials = {n: ufl.TrialFunction(b.V) for n, b in self.bodies.items()}
@@ -335,7 +337,8 @@ class Model:
 
         for name, body in self.bodies.items():
             tangent = body.stability_jacobian if stiffest else body.jacobian
-            add(name, name, tangent(trials[name], tests[name]))
+            if own:
+                add(name, name, tangent(trials[name], tests[name]))
         for c in self.constraints:
             r = c.residuals(tests)
             for i in r:  # (a constraint assembled outside the forms has none)

@@ -116,6 +116,12 @@ class DeformableBody(Protocol):
         The loops are a :class:`~forming.bodies.hexforce.HexInternalForce`.
         """
 
+    def compiled_tangent(self):
+        """Compiled element matrices of :meth:`jacobian`, or None to assemble the form.
+
+        The matrices are a :class:`~forming.bodies.hextangent.HexTangent`.
+        """
+
 
 class BodyBase:
     """The members every body shares: spaces, cells, kinematics, displacement state.
@@ -189,6 +195,9 @@ class BodyBase:
                                 plastic_floor: float = 0.3):
         """None: the explicit solver assembles this body's internal forces from its form."""
         del integration, hourglass, density, plastic_floor
+
+    def compiled_tangent(self):
+        """None: the implicit solver assembles this body's Jacobian from its form."""
 
     def cell_fields(self) -> dict[str, np.ndarray]:
         """No cell-wise results in ``final_shape.npz``."""

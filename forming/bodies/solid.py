@@ -20,6 +20,7 @@ from mpi4py import MPI
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
 from forming.bodies.base import BodyBase
 from forming.bodies.hexforce import HexInternalForce
+from forming.bodies.hextangent import HexTangent
 from forming.domain import BodyDomain
 from forming.errors import InputError, KernelFailure
 from forming.kinematics import mandel_contract, mandel_to_tensor, tensor_to_mandel
@@ -83,6 +84,10 @@ class SolidBody(BodyBase):
         self.point_cells = self.cells[: self.n_local_cells]
         self._qdofs = self.QS.dofmap.list[self.point_cells].ravel()
         self.n_points = self._qdofs.size
+        # the last evaluation's stress and tangent at the owned points, in their order
+        # (what S and D hold there; the compiled element matrices read them)
+        self.point_stress = np.zeros((self.n_points, 6))
+        self.point_tangent = np.zeros((self.n_points, 36))
         (self.dx,) = domain.dx(q)  # solve forms: on the scene mesh
         self.own_dx = domain.own_dx(q)  # post-processing: on the body's mesh
         F = self.deformation_gradient()
@@ -176,8 +181,10 @@ class SolidBody(BodyBase):
             raise KernelFailure(f"{res.n_failed} quadrature points: {what} in body "
                                 f"{self.name!r}")
         self.S.x.array.reshape(-1, 6)[self._qdofs] = res.S
+        self.point_stress = res.S
         if want_tangent:
             self.D.x.array.reshape(-1, 36)[self._qdofs] = res.D
+            self.point_tangent = res.D
         if frozen:
             self._evaluated_at = None
             return
@@ -237,6 +244,13 @@ class SolidBody(BodyBase):
         if self.spec.degree == 2:
             integration = "full"
         return HexInternalForce(self, integration, hourglass, density, plastic_floor)
+
+    def compiled_tangent(self) -> HexTangent | None:
+        """Compiled element matrices on P1 hexahedra with 8 points; None: the form."""
+        if (self.mesh.topology.cell_name() != "hexahedron" or self.spec.degree != 1
+                or self.quadrature_degree != 2):
+            return None
+        return HexTangent(self)
 
     @property
     def band_geometry(self) -> tuple[np.ndarray, int] | None:

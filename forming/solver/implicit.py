@@ -7,18 +7,20 @@ import logging
 import time
 
 import numpy as np
+from dolfinx import fem
 from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_residual, assign
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from forming import compat, signals  # noqa: F401
-from forming.errors import KernelFailure
+from forming.errors import InputError, KernelFailure
 from forming.model import Model
 from forming.solver import linear
 from forming.solver.base import StepResult
 from forming.solver.callbacks import assemble_held_residual, weak
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
+from forming.solver.tangents import CompiledJacobian
 from forming.springs import SpringRelease
 
 log = logging.getLogger(__name__)
@@ -103,6 +105,7 @@ class ImplicitSolver:
             snes.setConvergenceTest(weak(self._converged))
         self._fnorm0 = 0.0
         self._updates = 0
+        self._compiled = self._compiled_jacobian(model, bodies, bcs)
         linear.configure(self.problem.A, [b.V for b in bodies], self.options)
         self._residuals: list[float] = []
         self._failure: str | None = None
@@ -123,6 +126,24 @@ class ImplicitSolver:
         self._user_atol = "snes_atol" not in opts  # set on the command line: keep it
         self._release = SpringRelease([*model.interfaces, *model.sliding],
                                       self.options.spring_release)
+
+    def _compiled_jacobian(self, model: Model, bodies: list, bcs) -> CompiledJacobian | None:
+        """The Jacobian from compiled element matrices where they apply (``jacobian``)."""
+        choice = self.options.jacobian
+        if choice == "forms":
+            return None
+        tangent = (bodies[0].compiled_tangent()
+                   if len(bodies) == 1 and not model.sliding else None)
+        if tangent is None:
+            if choice == "compiled":
+                raise InputError("newton.jacobian", "compiled element matrices need one body "
+                                 "of P1 hexahedra with 8 points and no sliding contact")
+            return None
+        rest = model.jacobians(own=False)[0][0]
+        if rest is not None:
+            rest = fem.form(rest, entity_maps=model.entity_maps or None,
+                            jit_options=compat.SOLVE_JIT_OPTIONS)
+        return CompiledJacobian(self.problem.A, tangent, rest, bcs)
 
     # -- SNES callbacks --------------------------------------------------------------
     def _update_materials(self, x) -> str | None:
@@ -180,7 +201,10 @@ class ImplicitSolver:
         failure = self._update_materials(x)  # never raise here: SNES would be unusable
         if failure:
             self._failure = failure
-        assemble_jacobian(snes, x, A, P, **self._jctx)
+        if self._compiled is not None:
+            self._compiled.assemble(A)
+        else:
+            assemble_jacobian(snes, x, A, P, **self._jctx)
         self.model.add_jacobian(A)
         self.assembly_seconds += time.perf_counter() - t0
 

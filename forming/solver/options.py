@@ -84,6 +84,13 @@ class NewtonOptions:
             solution to round-off. Dropped zeros make a smaller matrix, but an entry that
             becomes non-zero later (contact spreading) is a new allocation in the
             assembly, whose cost grows with the matrix (docs/performance.md).
+        jacobian: How a body's own tangent enters the Jacobian: ``"compiled"``, its
+            element matrices computed in one compiled loop and summed into the matrix by
+            coordinate assembly (:mod:`forming.solver.tangents`; a one-body model of
+            trilinear hexahedra without sliding contact), or ``"forms"``, assembled
+            from its UFL form by DOLFINx; ``"auto"`` (default) takes ``"compiled"``
+            where it applies. The same matrix to round-off; the compiled one assembles
+            3 to 4 times faster (docs/performance.md).
         petsc: Extra PETSc options for the SNES prefix, overriding the defaults; the
             command line (``-forming_<key> value``) overrides both.
     """
@@ -103,6 +110,7 @@ class NewtonOptions:
     spring_escalation_hold: int = 10
     spring_release: float = 1.0
     zeros: Literal["auto", "drop", "keep"] = "auto"
+    jacobian: Literal["auto", "compiled", "forms"] = "auto"
     petsc: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -124,6 +132,9 @@ class NewtonOptions:
         if self.zeros not in ("auto", "drop", "keep"):
             raise InputError("newton.zeros",
                              f"must be 'auto', 'drop' or 'keep', got {self.zeros!r}")
+        if self.jacobian not in ("auto", "compiled", "forms"):
+            raise InputError("newton.jacobian", f"must be 'auto', 'compiled' or 'forms', "
+                             f"got {self.jacobian!r}")
         if not self.force_rtol >= 0.0:
             raise InputError("solver.force_rtol", f"must be >= 0, got {self.force_rtol}")
         if self.max_it < 1:
