@@ -33,7 +33,7 @@ _SQRT2 = math.sqrt(2.0)
 
 
 @numba.njit(cache=True, inline="always")
-def _gradient(u, nodes, grads, c, q):
+def point_gradient(u, nodes, grads, c, q):
     """Deformation gradient at point ``q`` of cell ``c``, row-major as a 9-tuple."""
     f00 = f11 = f22 = 1.0
     f01 = f02 = f10 = f12 = f20 = f21 = 0.0
@@ -68,7 +68,7 @@ def right_cauchy_green(u, nodes, grads, fm, cm, detf):
     nc, nq = grads.shape[0], grads.shape[1]
     for c in range(nc):
         for q in range(nq):
-            f00, f01, f02, f10, f11, f12, f20, f21, f22 = _gradient(u, nodes, grads, c, q)
+            f00, f01, f02, f10, f11, f12, f20, f21, f22 = point_gradient(u, nodes, grads, c, q)
             p = c * nq + q
             fm[p, 0], fm[p, 1], fm[p, 2] = f00, f01, f02
             fm[p, 3], fm[p, 4], fm[p, 5] = f10, f11, f12

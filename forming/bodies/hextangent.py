@@ -22,6 +22,7 @@ import numba
 import numpy as np
 
 from forming.bodies.hexforce import shape_gradients
+from forming.bodies.hexkernels import point_gradient
 from forming.errors import InputError
 
 
@@ -59,22 +60,7 @@ def element_tangents(u, nodes, grads, weights, stress, tangent, keep, slots, out
                 dofs[3 * a + i] = 3 * nodes[c, a] + i
         for q in range(nq):
             w = weights[c, q]
-            # F = I + sum_a u_a (x) g_a
-            f00 = f11 = f22 = 1.0
-            f01 = f02 = f10 = f12 = f20 = f21 = 0.0
-            for a in range(8):
-                n = 3 * nodes[c, a]
-                g0, g1, g2 = grads[c, q, a, 0], grads[c, q, a, 1], grads[c, q, a, 2]
-                u0, u1, u2 = u[n], u[n + 1], u[n + 2]
-                f00 += u0 * g0
-                f01 += u0 * g1
-                f02 += u0 * g2
-                f10 += u1 * g0
-                f11 += u1 * g1
-                f12 += u1 * g2
-                f20 += u2 * g0
-                f21 += u2 * g1
-                f22 += u2 * g2
+            f00, f01, f02, f10, f11, f12, f20, f21, f22 = point_gradient(u, nodes, grads, c, q)
             p = c * nq + q
             s00, s11, s22 = stress[p, 0], stress[p, 1], stress[p, 2]
             s12, s02, s01 = r * stress[p, 3], r * stress[p, 4], r * stress[p, 5]
