@@ -7,20 +7,19 @@ import logging
 import time
 
 import numpy as np
-from dolfinx import fem
 from dolfinx.fem.petsc import NonlinearProblem, assemble_jacobian, assemble_residual, assign
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from forming import compat, signals  # noqa: F401
-from forming.errors import InputError, KernelFailure
+from forming.errors import KernelFailure
 from forming.model import Model
 from forming.solver import linear
 from forming.solver.base import StepResult
 from forming.solver.callbacks import assemble_held_residual, weak
 from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
-from forming.solver.tangents import CompiledJacobian
+from forming.solver.tangents import compiled_jacobian
 from forming.springs import SpringRelease
 
 log = logging.getLogger(__name__)
@@ -105,7 +104,7 @@ class ImplicitSolver:
             snes.setConvergenceTest(weak(self._converged))
         self._fnorm0 = 0.0
         self._updates = 0
-        self._compiled = self._compiled_jacobian(model, bodies, bcs)
+        self._compiled = compiled_jacobian(model, self.problem.A, self.options.jacobian)
         linear.configure(self.problem.A, [b.V for b in bodies], self.options)
         self._residuals: list[float] = []
         self._failure: str | None = None
@@ -127,23 +126,10 @@ class ImplicitSolver:
         self._release = SpringRelease([*model.interfaces, *model.sliding],
                                       self.options.spring_release)
 
-    def _compiled_jacobian(self, model: Model, bodies: list, bcs) -> CompiledJacobian | None:
-        """The Jacobian from compiled element matrices where they apply (``jacobian``)."""
-        choice = self.options.jacobian
-        if choice == "forms":
-            return None
-        tangent = (bodies[0].compiled_tangent()
-                   if len(bodies) == 1 and not model.sliding else None)
-        if tangent is None:
-            if choice == "compiled":
-                raise InputError("newton.jacobian", "compiled element matrices need one body "
-                                 "of P1 hexahedra with 8 points and no sliding contact")
-            return None
-        rest = model.jacobians(own=False)[0][0]
-        if rest is not None:
-            rest = fem.form(rest, entity_maps=model.entity_maps or None,
-                            jit_options=compat.SOLVE_JIT_OPTIONS)
-        return CompiledJacobian(self.problem.A, tangent, rest, bcs)
+    @property
+    def jacobian_kind(self) -> str:
+        """``compiled`` (element matrices without forms) or ``forms``."""
+        return "forms" if self._compiled is None else "compiled"
 
     # -- SNES callbacks --------------------------------------------------------------
     def _update_materials(self, x) -> str | None:
@@ -448,6 +434,7 @@ class ImplicitSolver:
         names the solver used (``auto`` chosen for the model's size);
         ``jacobian_nonzeros`` is the entries the Jacobian stores at the end, over ranks,
         ``jacobian_zeros`` whether its exact zeros were dropped or kept,
+        ``jacobian`` whether the body's tangent was ``compiled`` or from its ``forms``,
         ``jacobian_mallocs`` PETSc's count of allocations while entries were inserted into
         the Jacobian over the run (MatGetInfo's ``mallocs``: entries outside its pattern).
         """
@@ -467,6 +454,7 @@ class ImplicitSolver:
         info = self.problem.A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)
         return {"linear_solver": self.options.linear_solver,
                 "jacobian_zeros": self.options.zeros,
+                "jacobian": self.jacobian_kind,
                 "jacobian_nonzeros": int(info["nz_used"]),
                 "jacobian_mallocs": int(info["mallocs"]),
                 "newton_iterations": self._work_total,

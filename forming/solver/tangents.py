@@ -24,7 +24,8 @@ from dolfinx import fem  # noqa: I001
 from dolfinx.fem.petsc import assemble_matrix
 from petsc4py import PETSc
 
-from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from forming import compat
+from forming.errors import InputError
 
 
 class CompiledJacobian:
@@ -82,3 +83,31 @@ class CompiledJacobian:
         if self.rest is not None:
             assemble_matrix(A, self.rest, self.bcs, diag=1.0)
         A.assemble()
+
+
+def compiled_jacobian(model, A: PETSc.Mat, choice: str) -> CompiledJacobian | None:
+    """The Jacobian from compiled element matrices where they apply, else None.
+
+    Args:
+        model: The model (:class:`~forming.model.Model`).
+        A: The solver's matrix.
+        choice: ``newton.jacobian``: ``auto``, ``compiled`` or ``forms``.
+
+    Raises:
+        InputError: ``compiled`` for a model it does not apply to.
+    """
+    if choice == "forms":
+        return None
+    bodies = list(model.bodies.values())
+    tangent = (bodies[0].compiled_tangent()
+               if len(bodies) == 1 and not model.sliding else None)
+    if tangent is None:
+        if choice == "compiled":
+            raise InputError("newton.jacobian", "compiled element matrices need one body of "
+                             "P1 hexahedra with 8 points and no sliding contact")
+        return None
+    rest = model.jacobians(own=False)[0][0]
+    if rest is not None:
+        rest = fem.form(rest, entity_maps=model.entity_maps or None,
+                        jit_options=compat.SOLVE_JIT_OPTIONS)
+    return CompiledJacobian(A, tangent, rest, model.dirichlet.bcs)
