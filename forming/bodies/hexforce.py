@@ -78,6 +78,34 @@ def shape_gradients(x: np.ndarray, points: np.ndarray,
     return np.einsum("kqa,cqkj->cqaj", dxi, inv), det
 
 
+def point_geometry(body, element=_P1) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                np.ndarray]:
+    """Nodes, shape-function gradients and weights at a body's own quadrature points.
+
+    On the rank's owned cells (:attr:`~forming.bodies.solid.SolidBody.point_cells`), in
+    the order of the body's points.
+
+    Args:
+        body: The solid on hexahedra.
+        element: The basix element of its displacement.
+
+    Returns:
+        (nodes (n_cells, n_nodes), gradients (n_cells, n_q, n_nodes, 3), quadrature
+        weight times det J (n_cells, n_q), node coordinates (n_cells, n_nodes, 3)).
+
+    Raises:
+        InputError: The body's points are not basix's Gauss points of its degree.
+    """
+    nodes = np.ascontiguousarray(body.V.dofmap.list[body.point_cells], dtype=np.int64)
+    x = body.V.tabulate_dof_coordinates()[nodes]
+    pts = body.QS.element.interpolation_points
+    qpts, qw = basix.make_quadrature(basix.CellType.hexahedron, body.quadrature_degree)
+    if not np.allclose(qpts, pts):  # the body's points, in its order
+        raise InputError(f"body.{body.name}", "quadrature points differ from basix's")
+    grads, det = shape_gradients(x, pts, element)
+    return nodes, np.ascontiguousarray(grads), np.ascontiguousarray(det * qw), x
+
+
 def mode_stiffness(gamma: np.ndarray, grads: np.ndarray, weights: np.ndarray,
                    cel: np.ndarray) -> np.ndarray:
     """Stiffness of each hourglass mode of each element under full integration [N/mm].
@@ -162,23 +190,15 @@ class HexInternalForce:
             raise InputError("explicit.hourglass", f"must be >= 0, got {hourglass!r}")
         self.body = body
         self.reduced = integration == "reduced"
-        V = body.V
-        self.nodes = np.ascontiguousarray(V.dofmap.list[body.point_cells], dtype=np.int64)
-        x = V.tabulate_dof_coordinates()[self.nodes]
-        pts = body.QS.element.interpolation_points
-        qpts, qw = basix.make_quadrature(basix.CellType.hexahedron, body.quadrature_degree)
-        if not np.allclose(qpts, pts):  # the body's points, in its order
-            raise InputError(f"body.{body.name}", "quadrature points differ from basix's")
         element = basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron,
                                        degree, basix.LagrangeVariant.gll_warped)
-        grads, det = shape_gradients(x, pts, element)
-        weights = det * qw
+        self.nodes, grads, weights, x = point_geometry(body, element)
         modulus = float(np.max(np.diag(body.material.kernel_data().cel)))
         # the Flanagan-Belytschko bound is a trilinear element's: a P2 body's step comes
         # from the Gershgorin bound alone, as through its forms
         self.wave2 = modulus / density if degree == 1 else 0.0
         nc = self.nodes.shape[0]
-        self.per_cell = 1 if self.reduced else len(qw)
+        self.per_cell = 1 if self.reduced else weights.shape[1]
         if self.reduced:
             volume = weights.sum(axis=1)
             mean = np.einsum("cq,cqaj->caj", weights, grads) / volume[:, None, None]

@@ -17,11 +17,10 @@ sums them into the matrix's entries, which the solver hands to PETSc in one call
 
 from __future__ import annotations
 
-import basix
 import numba
 import numpy as np
 
-from forming.bodies.hexforce import shape_gradients
+from forming.bodies.hexforce import point_geometry
 from forming.bodies.hexkernels import point_gradient
 from forming.errors import InputError
 
@@ -129,18 +128,11 @@ class HexTangent:
         if body.mesh.topology.cell_name() != "hexahedron" or body.spec.degree != 1:
             raise InputError(f"body.{body.name}", "compiled element matrices are for P1 "
                              "hexahedra")
-        pts = body.QS.element.interpolation_points
-        qpts, qw = basix.make_quadrature(basix.CellType.hexahedron, body.quadrature_degree)
-        if len(qw) != 8 or not np.allclose(qpts, pts):
+        if body.quadrature_degree != 2:
             raise InputError(f"body.{body.name}", "compiled element matrices need the 2 x 2 "
                              "x 2 Gauss points (quadrature degree 2)")
         self.body = body
-        V = body.V
-        self.nodes = np.ascontiguousarray(V.dofmap.list[body.point_cells], dtype=np.int64)
-        x = V.tabulate_dof_coordinates()[self.nodes]
-        grads, det = shape_gradients(x, pts)
-        self.grads = np.ascontiguousarray(grads)
-        self.weights = np.ascontiguousarray(det * qw)
+        self.nodes, self.grads, self.weights, _x = point_geometry(body)
         # the dofs of each element, in the order of the matrices' rows (node, component)
         self.dofs = (3 * self.nodes[:, :, None] + np.arange(3)).reshape(-1, 24)
 
