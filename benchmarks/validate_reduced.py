@@ -1,13 +1,14 @@
-"""Reduced against full integration in the explicit solver (issue 16, item 1).
+"""Reduced and thickness against full integration in the explicit solver (issue 16).
 
-For each scene: one implicit run, the explicit run with full integration (the default)
-and with reduced integration (one point, hourglass control), each explicit run compared
+For each scene: one implicit run, the explicit run with full integration (the default),
+with reduced integration (one point, hourglass control) and with thickness integration
+(two points through the thickness, hourglass control), each explicit run compared
 with the implicit one by ``forming compare --reuse`` (force-stroke RMS within 3% of the
 peak, final shape within 2% of the core thickness). Also the cantilever of
 ``tests/test_hexforce.py`` for several hourglass coefficients. Writes
 docs/validation.md's ``reduced`` section.
 
-Run: ``python benchmarks/validate_reduced.py [--ranks 2]`` (about 15 minutes on 2 cores).
+Run: ``python benchmarks/validate_reduced.py [--ranks 2]`` (about 20 minutes on 2 cores).
 """
 
 from __future__ import annotations
@@ -30,7 +31,8 @@ SCENES = (
     ("hemisphere free, 12 x 12 x 3", "hemisphere", ("blank_holder=false", "cells=12,12,3",
                                                   "explicit.loading_time=0.1")),
 )
-KAPPAS = (0.01, 0.05, 0.1, 0.3)  # 0: the hourglass modes are free (singular)
+KAPPAS = (0.01, 0.05, 0.1, 0.3)
+INTEGRATIONS = ("full", "reduced", "thickness")  # 0: the hourglass modes are free (singular)
 
 
 def _compare(case: str, sets: tuple[str, ...], out: Path) -> dict:
@@ -49,7 +51,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--ranks", type=int, default=1)
     parser.add_argument("--out", type=Path, default=REPO / "results" / "validate_reduced")
-    parser.add_argument("--rerun", nargs="*", default=("full", "reduced"),
+    parser.add_argument("--rerun", nargs="*", default=INTEGRATIONS,
                         help="integrations to run again; the others' runs in --out are "
                              "compared as they are (implicit runs are always reused)")
     args = parser.parse_args()
@@ -59,7 +61,7 @@ def main() -> None:
         imp = base / "implicit"
         if not (imp / "summary.json").is_file():
             run_case_process(case, imp, args.ranks, sets=sets, allow_failure=True)
-        for integration in ("full", "reduced"):
+        for integration in INTEGRATIONS:
             folder = base / integration
             folder.mkdir(parents=True, exist_ok=True)
             link = folder / "implicit"
@@ -79,28 +81,33 @@ def main() -> None:
                          "shape_rms": r["shape_rms_diff_rel_thickness"],
                          "hourglass": m.get("hourglass_energy_fraction", 0.0),
                          "crushed": (r["metrics"].get("crushed_volume_mm3", {})),
-                         "wall": s["timing"]["wall_s"], "meets": r["meets_targets"]})
+                         "wall": s["timing"]["wall_s"],
+                         "us": s["timing"].get("us_per_element_increment", float("nan")),
+                         "meets": r["meets_targets"]})
             print(rows[-1], flush=True)
     import dolfinx_solver  # noqa: F401  (PETSc and MPI before dolfinx)
 
     from test_hexforce import _cantilever
 
-    beams = [(k, *_cantilever("reduced", k)) for k in KAPPAS]
-    beams.append(("full integration", *_cantilever("full", 0.0)))
+    beams = [(k, *_cantilever("reduced", k), *_cantilever("thickness", k)) for k in KAPPAS]
+    beams.append(("full integration", *_cantilever("full", 0.0), float("nan"), 0.0))
     _report(rows, beams, args.ranks)
 
 
 def _report(rows: list[dict], beams: list, ranks: int) -> None:
     lines = [
-        "## Reduced integration in the explicit solver (issue 16)", "",
+        "## Reduced and thickness integration in the explicit solver (issue 16)", "",
         f"`python benchmarks/validate_reduced.py --ranks {ranks}` on {machine()}. Each "
         "explicit run against one implicit run of the same scene (`forming compare "
         "--reuse`); targets 3% force RMS, 2% shape RMS. Hourglass: the largest hourglass "
-        "over internal energy after 5% of the load (`metrics.hourglass_energy_fraction`).",
+        "over internal energy after 5% of the load (`metrics.hourglass_energy_fraction`). "
+        "Cost: the time integration's wall time per element and increment "
+        "(`timing.us_per_element_increment`, all elements of the scene).",
         "",
         "| scene | integration | status | force RMS diff | peak diff | shape RMS | hourglass "
-        "/ internal | crushed volume imp. / exp. [mm^3] | wall [s] | targets |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "/ internal | crushed volume imp. / exp. [mm^3] | wall [s] | us / element / "
+        "increment | targets |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         cv = r["crushed"]
@@ -109,16 +116,20 @@ def _report(rows: list[dict], beams: list, ranks: int) -> None:
         lines.append(
             f"| {r['scene']} | {r['integration']} | {r['status']} | {r['force_rms']:.2%} "
             f"| {r['peak_diff']:+.2%} | {r['shape_rms']:.2%} | {r['hourglass']:.1%} "
-            f"| {crushed} | {r['wall']:.0f} | {'met' if r['meets'] else 'missed'} |")
+            f"| {crushed} | {r['wall']:.0f} | {r['us']:.2f} "
+            f"| {'met' if r['meets'] else 'missed'} |")
     lines += [
         "", "Cantilever 100 x 10 x 10 mm, 40 x 2 x 4 elements, tip shear, static (the "
         "element loops' stiffness by central differences): tip deflection over "
         "Timoshenko's, hourglass over internal energy (targets 5% and 2%).", "",
-        "| hourglass coefficient | deflection / beam theory | hourglass / internal |",
-        "|---|---|---|",
+        "| hourglass coefficient | reduced: deflection / beam theory | reduced: hourglass "
+        "/ internal | thickness: deflection / beam theory | thickness: hourglass / "
+        "internal |",
+        "|---|---|---|---|---|",
     ]
-    for k, ratio, hg in beams:
-        lines.append(f"| {k} | {ratio:.4f} | {hg:.2%} |")
+    for k, ratio, hg, ratio2, hg2 in beams:
+        second = "- | -" if ratio2 != ratio2 else f"{ratio2:.4f} | {hg2:.2%}"
+        lines.append(f"| {k} | {ratio:.4f} | {hg:.2%} | {second} |")
     update_section("reduced", "\n".join(lines), REPO / "docs" / "validation.md")
     print("\n".join(lines))
 

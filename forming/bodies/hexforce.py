@@ -23,7 +23,14 @@ Two integrations:
   elastic, the hardening's series stiffness while it crushes, at least
   ``plastic_floor``): an elastic hourglass spring would carry load a crushed element no
   longer carries. The plastic history is then one value per element, copied
-  to the body's points when it is synchronised.
+  to the body's points when it is synchronised;
+- ``thickness``: one point in plane and two through the thickness (the Gauss points of
+  the element's axis nearest the global z, the core's thickness at the start), as the
+  in-plane reduced solid-shells integrate: the two points see the element's bending
+  and the gradient of its crushing through the thickness, which the one point cannot;
+  only the two modes they do not see (the in-plane bilinear mode and the trilinear
+  one) are stabilised, as above. Each body point takes the history of the point on its
+  side of the element's mid-plane.
 
 See docs/theory.md, section 12.
 """
@@ -106,6 +113,65 @@ def point_geometry(body, element=_P1) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return nodes, np.ascontiguousarray(grads), np.ascontiguousarray(det * qw), x
 
 
+def thickness_axes(x: np.ndarray, element=_P1) -> np.ndarray:
+    """The reference axis of each element nearest the global z (its thickness).
+
+    Args:
+        x: (n_cells, n_nodes, 3) node coordinates.
+        element: The basix element of the nodes.
+
+    Returns:
+        (n_cells,) 0, 1 or 2: the axis whose tangent at the centre has the largest share
+        of z.
+    """
+    dxi = element.tabulate(1, np.full((1, 3), 0.5))[1:4, 0, :, 0]  # (3, n)
+    tangents = np.einsum("cai,ka->cki", x, dxi)
+    share = np.abs(tangents[:, :, 2]) / np.linalg.norm(tangents, axis=2)
+    return np.argmax(share, axis=1)
+
+
+def thickness_points(x: np.ndarray, axis: np.ndarray, body_points: np.ndarray,
+                     mean: np.ndarray, volume: np.ndarray,
+                     element=_P1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gradients and weights at two Gauss points on each element's thickness axis.
+
+    The gradients at the points ``g_q`` are shifted by the element's distortion,
+    ``b_q = g_q - sum_q w_q g_q / V + b``, with ``b`` the exact mean gradient and the
+    weights ``w_q`` the points' shares of the exact volume ``V`` (by det J): then
+    ``sum_q w_q b_q = int grad N dV`` exactly, so a homogeneous deformation of a
+    distorted mesh leaves the interior nodes in equilibrium (the patch test), and
+    every linear field still has its exact gradient at both points. On a parallelepiped
+    the shift is zero.
+
+    Args:
+        x: (n_cells, n_nodes, 3) node coordinates.
+        axis: (n_cells,) each element's thickness axis (:func:`thickness_axes`).
+        body_points: (n_q, 3) the body's own points on the reference cell [0, 1]^3.
+        mean: (n_cells, n_nodes, 3) exact mean shape-function gradients.
+        volume: (n_cells,) exact element volumes.
+        element: The basix element of the nodes.
+
+    Returns:
+        (gradients (n_cells, 2, n_nodes, 3), weights (n_cells, 2), the index of the
+        point on each body point's side of the mid-plane, ``2 c + side`` (n_cells, n_q)).
+    """
+    nc = x.shape[0]
+    grads = np.empty((nc, 2, x.shape[1], 3))
+    det = np.empty((nc, 2))
+    for k in range(3):
+        sel = axis == k
+        if not sel.any():
+            continue
+        pts = np.full((2, 3), 0.5)
+        pts[:, k] = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)
+        grads[sel], det[sel] = shape_gradients(x[sel], pts, element)
+    weights = volume[:, None] * det / det.sum(axis=1, keepdims=True)
+    gbar = np.einsum("cq,cqaj->caj", weights, grads) / volume[:, None, None]
+    grads += (mean - gbar)[:, None]
+    side = body_points[:, axis].T > 0.5  # (n_cells, n_q): above the mid-plane
+    return grads, weights, 2 * np.arange(nc)[:, None] + side.astype(np.int64)
+
+
 def mode_stiffness(gamma: np.ndarray, grads: np.ndarray, weights: np.ndarray,
                    cel: np.ndarray) -> np.ndarray:
     """Stiffness of each hourglass mode of each element under full integration [N/mm].
@@ -163,14 +229,16 @@ class HexInternalForce:
     Args:
         body: The solid (:class:`~forming.bodies.solid.SolidBody`) on P1 or P2
             hexahedra.
-        integration: ``"full"`` or ``"reduced"`` (one point, hourglass control; P1 only).
-        hourglass: Hourglass coefficient ``kappa`` of the reduced element (>= 0).
+        integration: ``"full"``, ``"reduced"`` (one point, hourglass control) or
+            ``"thickness"`` (two points through the thickness, hourglass control of the
+            two modes they miss); the last two for P1 only.
+        hourglass: Hourglass coefficient ``kappa`` of the reduced elements (>= 0).
         density: Mass density [t/mm^3] (the element frequency bound).
         plastic_floor: Smallest tangent ratio of a plastically flowing element.
 
     Raises:
         InputError: Not a hexahedral body of degree 1 or 2, reduced integration of a
-            degree-2 body, a negative coefficient, or no density.
+            degree-2 or a fracturing body, a negative coefficient, or no density.
     """
 
     def __init__(self, body, integration: str, hourglass: float, density: float,
@@ -179,17 +247,21 @@ class HexInternalForce:
         if body.mesh.topology.cell_name() != "hexahedron" or degree not in (1, 2):
             raise InputError(f"body.{body.name}",
                              "the element loops need P1 or P2 hexahedra")
-        if integration not in ("full", "reduced"):
+        if integration not in ("full", "reduced", "thickness"):
+            raise InputError("explicit.integration", "must be 'full', 'reduced' or "
+                             f"'thickness', got {integration!r}")
+        if integration != "full" and degree != 1:
             raise InputError("explicit.integration",
-                             f"must be 'full' or 'reduced', got {integration!r}")
-        if integration == "reduced" and degree != 1:
-            raise InputError("explicit.integration",
-                             f"reduced integration is for P1 hexahedra; body {body.name!r} "
-                             f"has degree {degree}")
+                             f"{integration} integration is for P1 hexahedra; body "
+                             f"{body.name!r} has degree {degree}")
+        if integration == "thickness" and body.damaging:
+            raise InputError("explicit.integration", "thickness integration does not take "
+                             f"a fracturing body ({body.name!r}): use 'full'")
         if not hourglass >= 0.0:
             raise InputError("explicit.hourglass", f"must be >= 0, got {hourglass!r}")
         self.body = body
-        self.reduced = integration == "reduced"
+        self.integration = integration
+        self.reduced = integration != "full"  # hourglass-controlled
         element = basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron,
                                        degree, basix.LagrangeVariant.gll_warped)
         self.nodes, grads, weights, x = point_geometry(body, element)
@@ -198,17 +270,32 @@ class HexInternalForce:
         # from the Gershgorin bound alone, as through its forms
         self.wave2 = modulus / density if degree == 1 else 0.0
         nc = self.nodes.shape[0]
-        self.per_cell = 1 if self.reduced else weights.shape[1]
+        self.per_cell = {"full": weights.shape[1], "reduced": 1, "thickness": 2}[integration]
+        # the loop's point of each body point (n_cells, n_q); None: the body's own points
+        self.point_map = None
         if self.reduced:
             volume = weights.sum(axis=1)
             mean = np.einsum("cq,cqaj->caj", weights, grads) / volume[:, None, None]
-            self.grads = np.ascontiguousarray(mean[:, None])
-            self.weights = volume[:, None].copy()
             # gamma = h - (h . X) b: orthogonal to every linear field
             hx = np.einsum("ma,cai->cmi", _H, x)
             self.gamma = np.ascontiguousarray(_H[None] - np.einsum("cmi,cai->cma", hx, mean))
             cel = body.material.kernel_data().cel
             self.k_hg = hourglass * mode_stiffness(self.gamma, grads, weights, cel)
+            if integration == "reduced":
+                self.grads = np.ascontiguousarray(mean[:, None])
+                self.weights = volume[:, None].copy()
+                self.point_map = np.repeat(np.arange(nc)[:, None], weights.shape[1], axis=1)
+            else:
+                axis = thickness_axes(x)
+                g2, self.weights, self.point_map = thickness_points(
+                    x, axis, body.QS.element.interpolation_points, mean, volume)
+                self.grads = np.ascontiguousarray(g2)
+                # what the two points already put against each mode and component (the
+                # bending through the thickness) is not stabilised again: the hourglass
+                # stiffness is kappa times what full integration adds to it (the
+                # in-plane gradients: of the crushing, of the membrane strains)
+                seen = mode_stiffness(self.gamma, self.grads, self.weights, cel)
+                self.k_hg = np.maximum(self.k_hg - hourglass * seen, 0.0)
         else:
             self.grads = np.ascontiguousarray(grads)
             self.weights = weights
@@ -234,6 +321,7 @@ class HexInternalForce:
         self.hg = np.zeros((4, nc, 4, 3))
         self.hg_energy = np.zeros((2, nc))
         self.phi = np.ones(nc)
+        self._phi_points = np.ones(n)  # the tangent ratio of each point
         k = body.material.kernel_data()
         self._curve = (k.xs, k.ys, k.ds) if k.plastic else None
         self.modulus = modulus
@@ -288,7 +376,8 @@ class HexInternalForce:
             return f"{nbad} integration points: {what} in body {body.name!r}"
         if self.reduced and self._curve is not None:
             tangent_ratio(self.ep, self.evp, self.ep_trial, self.evp_trial, *self._curve,
-                          self.modulus, self.plastic_floor, self.phi)
+                          self.modulus, self.plastic_floor, self._phi_points)
+            self.phi[:] = self._phi_points.reshape(-1, self.per_cell).mean(axis=1)
         self.omega2 = nodal_forces(u, self.nodes, self.grads, self.weights, self.fm,
                                    self.stress,
                                    self.gamma, self.k_hg, self.phi, self.hg,
@@ -297,7 +386,7 @@ class HexInternalForce:
 
     @property
     def crushes_at_one_point(self) -> bool:
-        """A one-point element of a material that crushes (its crushing is one value)."""
+        """A material that crushes on one point in plane (reduced or thickness)."""
         return self.reduced and self._curve is not None
 
     @property
@@ -337,9 +426,9 @@ class HexInternalForce:
         if ps is None or ps.ep is self.ep:  # (the body's own arrays: nothing to copy)
             self.body.invalidate()
             return
-        k = ps.ep.shape[0] // self.ep.shape[0] if self.ep.shape[0] else 1
-        ps.ep[:] = np.repeat(self.ep, k, axis=0)
-        ps.evp[:] = np.repeat(self.evp, k)
+        where = self.point_map.ravel()
+        ps.ep[:] = self.ep[where]
+        ps.evp[:] = self.evp[where]
         ps.ep_trial[:] = ps.ep
         ps.evp_trial[:] = ps.evp
         self.body.invalidate()
@@ -347,13 +436,16 @@ class HexInternalForce:
     def pull(self) -> None:
         """Take the body's converged plastic state (the start, or a restored snapshot).
 
-        A one-point element takes the mean of its cell's points.
+        Each point of a reduced element takes the mean of the body's points it stands for.
         """
         ps = self.body.plastic
         n = self.ep.shape[0]
         if ps is None or n == 0 or ps.ep is self.ep:  # (a rank may own no cell)
             return
-        self.ep[:] = ps.ep.reshape(n, -1, 6).mean(axis=1)
-        self.evp[:] = ps.evp.reshape(n, -1).mean(axis=1)
+        where = self.point_map.ravel()
+        count = np.bincount(where, minlength=n).astype(float)
+        self.evp[:] = np.bincount(where, ps.evp, minlength=n) / count
+        for i in range(6):
+            self.ep[:, i] = np.bincount(where, ps.ep[:, i], minlength=n) / count
         self.ep_trial[:] = self.ep
         self.evp_trial[:] = self.evp

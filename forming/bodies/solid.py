@@ -237,11 +237,11 @@ class SolidBody(BodyBase):
         """Element loops for the explicit solver on hexahedra; None: use the forms.
 
         ``integration`` applies to P1 hexahedra; P2 ones (the meso-scale walls) are
-        always fully integrated.
+        always fully integrated, and so are fracturing ones under ``thickness``.
         """
         if self.mesh.topology.cell_name() != "hexahedron" or self.spec.degree not in (1, 2):
             return None
-        if self.spec.degree == 2:
+        if self.spec.degree == 2 or (integration == "thickness" and self.damaging):
             integration = "full"
         return HexInternalForce(self, integration, hourglass, density, plastic_floor)
 

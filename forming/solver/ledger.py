@@ -165,9 +165,9 @@ def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float,
         opts: Its explicit options (:class:`~forming.solver.options.ExplicitOptions`).
         mass_added: The mass scaling added, as a fraction of the mass.
         mass_limit: The added fraction above which a run is flagged.
-        one_point_crushing: A crushable body has one-point (reduced) elements: its
-            crushing where it bends within an element is missed (docs/validation.md,
-            "Where the core crushes").
+        one_point_crushing: A crushable body has one point in plane per element
+            (reduced or thickness integration): its crushing where it varies across an
+            element is missed (docs/validation.md, "Where the core crushes").
     """
     out = []
     if led.ke_ie_max > opts.quasi_static_limit:
@@ -183,8 +183,10 @@ def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float,
                    f"internal energy (limit {opts.hourglass_limit:.0%}): refine the mesh, "
                    "raise explicit.hourglass or use explicit.integration=full")
     if one_point_crushing:
-        out.append("explicit: integration=reduced with a crushable core: one point per "
-                   "element does not crush where the core bends within an element (on the "
-                   "hemisphere 0-57% of the fully integrated crushed volume, "
-                   "docs/validation.md); take crushing from explicit.integration=full")
+        share = {"reduced": "0-57%", "thickness": "48-57%"}.get(opts.integration, "part")
+        out.append(f"explicit: integration={opts.integration} with a crushable core: one "
+                   "point in plane does not crush where the crushing varies across an "
+                   f"element (on the hemisphere {share} of the fully integrated crushed "
+                   "volume, docs/validation.md); take crushing from "
+                   "explicit.integration=full")
     return out

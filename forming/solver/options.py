@@ -239,7 +239,10 @@ class ExplicitOptions:
             solver; default) or ``"reduced"`` (one point per element with
             Flanagan-Belytschko hourglass control, as Abaqus' C3D8R: about 5 times
             cheaper, but on the shipped meshes its crushing and bending depart from the
-            implicit answers, docs/validation.md). Fabric skins use their forms.
+            implicit answers, docs/validation.md) or ``"thickness"`` (one point in plane,
+            two through the thickness, as an in-plane reduced solid-shell; the
+            hourglass control takes the two modes they miss: the gradient of crushing
+            and bending through the core is kept). Fabric skins use their forms.
         hourglass: Hourglass stiffness coefficient kappa of reduced integration
             (``k = kappa M V |b|^2 / 3`` per element, docs/theory.md section 12).
         hourglass_plastic: Smallest fraction of its elastic hourglass stiffness a
@@ -261,15 +264,15 @@ class ExplicitOptions:
     output_interval: float | None = None
     bound_every: float = 0.1
     quasi_static_limit: float = 0.05
-    integration: Literal["full", "reduced"] = "full"
+    integration: Literal["full", "reduced", "thickness"] = "full"
     hourglass: float = 0.1
     hourglass_plastic: float = 0.3
     hourglass_limit: float = 0.05
 
     def __post_init__(self) -> None:
-        if self.integration not in ("reduced", "full"):
-            raise InputError("explicit.integration",
-                             f"must be 'reduced' or 'full', got {self.integration!r}")
+        if self.integration not in ("reduced", "full", "thickness"):
+            raise InputError("explicit.integration", "must be 'full', 'reduced' or "
+                             f"'thickness', got {self.integration!r}")
         if not (math.isfinite(self.hourglass) and self.hourglass >= 0):
             raise InputError("explicit.hourglass", f"must be >= 0, got {self.hourglass!r}")
         if not 0.0 <= self.hourglass_plastic <= 1.0:
