@@ -6,7 +6,7 @@ loops of :mod:`.hexkernels` around the material's point kernel (the same stress 
 as the implicit solver's, :func:`~forming.materials.solids.point_stress`), on the
 rank's owned cells, into a preallocated vector.
 
-Two integrations:
+Three integrations:
 
 - ``full``: the body's own quadrature points (2 x 2 x 2 Gauss on trilinear hexahedra,
   3 x 3 x 3 on triquadratic ones), the same stress at the same points as the forms of
@@ -27,10 +27,13 @@ Two integrations:
 - ``thickness``: one point in plane and two through the thickness (the Gauss points of
   the element's axis nearest the global z, the core's thickness at the start), as the
   in-plane reduced solid-shells integrate: the two points see the element's bending
-  and the gradient of its crushing through the thickness, which the one point cannot;
-  only the two modes they do not see (the in-plane bilinear mode and the trilinear
-  one) are stabilised, as above. Each body point takes the history of the point on its
-  side of the element's mid-plane.
+  and the gradient of its crushing through the thickness, which the one point cannot.
+  The hourglass stiffness of each mode and component is ``kappa`` times what full
+  integration puts against it beyond what the two points already do: all of it for
+  the in-plane bilinear and the trilinear modes, which the points do not see, the
+  in-plane gradients alone (of the crushing, of the membrane strains) for the two
+  bending modes. Each body point takes the history of the point on its side of the
+  element's mid-plane.
 
 See docs/theory.md, section 12.
 """
