@@ -255,6 +255,35 @@ def test_plastic_history_goes_to_the_body_s_points_and_back(integration):
     assert np.allclose(loop.evp, evp, rtol=0, atol=1e-14)
 
 
+@pytest.mark.parametrize("integration", ["reduced", "thickness"])
+def test_hourglass_forces_turn_with_the_element(integration):
+    """A bent element turned through 60 deg: the same hourglass energy, forces turned.
+
+    The hourglass modes are measured in the element's rotated frame (the polar factor of
+    its mean F), so ``u' = R (X + u) - X`` gives forces ``R f`` and the same hourglass
+    energy, to round-off. Measured in the reference frame instead, a bending mode turned
+    through a large angle (the core over the hemisphere's die) reads as the stiff mode
+    of another component. A failure means the hourglass control is not objective.
+    """
+    body = _body(honeycomb_core("isotropic", plastic=False), size=(20.0, 20.0, 10.0),
+                 cells=(2, 2, 1), distort=0.0)
+    loop = body.explicit_internal_force(integration, 0.1, DENSITY)
+    X = body.V.tabulate_dof_coordinates()
+    c = X.mean(axis=0)
+    u0 = np.zeros_like(X)
+    u0[:, 0] = 0.01 * (X[:, 0] - c[0]) * (X[:, 2] - c[2]) / 10.0  # bending, some shear
+    u0[:, 2] = 0.004 * (X[:, 0] - c[0]) * (X[:, 1] - c[1]) / 10.0  # a twist
+    f0 = _forces(body, loop, u0.ravel()).reshape(-1, 3)
+    e0 = loop.hourglass_energy
+    t = np.radians(60.0)
+    R = np.array([[np.cos(t), 0.0, np.sin(t)], [0.0, 1.0, 0.0], [-np.sin(t), 0.0, np.cos(t)]])
+    u1 = (X + u0) @ R.T - X
+    f1 = _forces(body, loop, u1.ravel()).reshape(-1, 3)
+    assert e0 > 0.0
+    assert abs(loop.hourglass_energy - e0) < 1e-9 * e0
+    assert np.max(np.abs(f1 - f0 @ R.T)) < 1e-9 * np.max(np.abs(f0))
+
+
 def loop_shape(points):
     """P1 hexahedron shape functions at ``points`` (n_q, 8)."""
     import basix
@@ -306,8 +335,8 @@ def test_one_point_crushing_is_flagged_in_the_run_s_warnings():
     assert run_warnings(quiet, opts, 0.0, 0.05) == []
     (warning,) = run_warnings(quiet, opts, 0.0, 0.05, one_point_crushing=True)
     assert "integration=reduced" in warning and "explicit.integration=full" in warning
-    # thickness integration: still one point in plane (48-57% on the hemispheres)
+    # thickness integration: still one point in plane (38-61% on the hemispheres)
     assert crushable.explicit_internal_force("thickness", 0.1, DENSITY).crushes_at_one_point
     (warning,) = run_warnings(quiet, ExplicitOptions(integration="thickness"), 0.0, 0.05,
                               one_point_crushing=True)
-    assert "integration=thickness" in warning and "48-57%" in warning
+    assert "integration=thickness" in warning and "38-61%" in warning

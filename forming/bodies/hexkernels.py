@@ -13,12 +13,15 @@ Two passes per evaluation, around the material's point kernel:
 The loops take any number of nodes per element: the 8 of a trilinear hexahedron or
 the 27 of a triquadratic one (the meso-scale cell walls).
 
-The hourglass control is the stiffness form written in the reference configuration
-(total Lagrangian): the hourglass vectors ``gamma_alpha = h_alpha - (h_alpha . X) b``
-are orthogonal to every linear displacement field, so a homogeneous deformation (the
-patch test) and any rigid motion, of any size, produce no hourglass force, and the
-hourglass energy is the stored energy ``k |q|^2 / 2`` of the modes ``q = gamma . u``.
-See docs/theory.md, section 12.
+The hourglass control is the stiffness form with the reference configuration's
+hourglass vectors ``gamma_alpha = h_alpha - (h_alpha . X) b``, orthogonal to every
+linear displacement field, so a homogeneous deformation (the patch test) and any rigid
+motion, of any size, produce no hourglass force. The mode amplitudes are measured in
+the element's rotated frame, ``q = R^T (gamma . u)`` with ``R`` the polar factor of
+the element's mean deformation gradient, and their forces turned back, ``f_a = gamma_a
+R Q`` (corotational): a bent element turned through a large angle keeps its bending in
+its bending mode instead of loading another component's. The hourglass energy is the
+work of ``Q`` on ``q``. See docs/theory.md, section 12.
 """
 
 from __future__ import annotations
@@ -83,6 +86,37 @@ def right_cauchy_green(u, nodes, grads, fm, cm, detf):
                        + f02 * (f10 * f21 - f11 * f20))
 
 
+@numba.njit(cache=True, inline="always")
+def polar_rotation(a00, a01, a02, a10, a11, a12, a20, a21, a22):
+    """The rotation R of the polar decomposition F = R U (Higham's iteration).
+
+    ``R <- (R + R^-T) / 2`` from ``R = F``; quadratic convergence, to 1e-12 in a few
+    iterations for the stretches of a crushing core. Row-major 9-tuple.
+    """
+    for _ in range(30):
+        c00 = a11 * a22 - a12 * a21
+        c01 = a12 * a20 - a10 * a22
+        c02 = a10 * a21 - a11 * a20
+        c10 = a02 * a21 - a01 * a22
+        c11 = a00 * a22 - a02 * a20
+        c12 = a01 * a20 - a00 * a21
+        c20 = a01 * a12 - a02 * a11
+        c21 = a02 * a10 - a00 * a12
+        c22 = a00 * a11 - a01 * a10
+        det = a00 * c00 + a01 * c01 + a02 * c02
+        h = 0.5 / det  # R^-T = cof(R) / det R
+        b00, b01, b02 = 0.5 * a00 + h * c00, 0.5 * a01 + h * c01, 0.5 * a02 + h * c02
+        b10, b11, b12 = 0.5 * a10 + h * c10, 0.5 * a11 + h * c11, 0.5 * a12 + h * c12
+        b20, b21, b22 = 0.5 * a20 + h * c20, 0.5 * a21 + h * c21, 0.5 * a22 + h * c22
+        change = (abs(b00 - a00) + abs(b01 - a01) + abs(b02 - a02) + abs(b10 - a10)
+                  + abs(b11 - a11) + abs(b12 - a12) + abs(b20 - a20) + abs(b21 - a21)
+                  + abs(b22 - a22))
+        a00, a01, a02, a10, a11, a12, a20, a21, a22 = b00, b01, b02, b10, b11, b12, b20, b21, b22
+        if change < 1e-13:
+            break
+    return a00, a01, a02, a10, a11, a12, a20, a21, a22
+
+
 @numba.njit(cache=True)
 def nodal_forces(u, nodes, grads, weights, fm, stress, gamma, k_hg, phi, hg, work, wave2, f):
     """Add the element forces to ``f``; the hourglass work; the stiffest element.
@@ -90,7 +124,8 @@ def nodal_forces(u, nodes, grads, weights, fm, stress, gamma, k_hg, phi, hg, wor
     The hourglass forces follow the modes in rate form, ``Q = Q_n + phi k (q - q_n)``,
     with ``phi`` the element's tangent over its elastic stiffness (1 while elastic), so
     that a crushing element resists its hourglass modes as a fully integrated one
-    would: with its plastic tangent.
+    would: with its plastic tangent. ``q`` and ``Q`` are in the element's rotated
+    frame (:func:`polar_rotation` of its volume-mean F).
 
     Args:
         u: Nodal displacements, 3 per node.
@@ -103,8 +138,9 @@ def nodal_forces(u, nodes, grads, weights, fm, stress, gamma, k_hg, phi, hg, wor
         k_hg: (n_cells, 4, 3) elastic hourglass stiffness of each mode and component
             [N/mm].
         phi: (n_cells,) tangent ratio of each element in this increment.
-        hg: (4, n_cells, 4, 3) hourglass state: converged amplitudes ``q_n`` and
-            forces ``Q_n``, then the new ``q`` and ``Q`` (written).
+        hg: (4, n_cells, 4, 3) hourglass state in the elements' rotated frames:
+            converged amplitudes ``q_n`` and forces ``Q_n``, then the new ``q`` and
+            ``Q`` (written).
         work: (n_cells,) hourglass work of each element since ``q_n`` (written).
         wave2: Squared elastic wave speed of the material, M / rho [mm^2/s^2]; 0 skips
             the frequency bound.
@@ -164,23 +200,49 @@ def nodal_forces(u, nodes, grads, weights, fm, stress, gamma, k_hg, phi, hg, wor
             if bound and det > 0.0:
                 omega2 = max(omega2, 8.0 * wave2 * gg / (det * det))
         if hourglass:
+            # the element's rotation (polar factor of its mean F): the modes are measured
+            # and resisted in the element's rotated frame, so that a bent element turned
+            # through a large angle does not load another mode's stiffness
+            m00 = m01 = m02 = m10 = m11 = m12 = m20 = m21 = m22 = 0.0
+            vol = 0.0
+            for q in range(nq):
+                w = weights[c, q]
+                g9 = fm[c * nq + q]
+                m00 += w * g9[0]
+                m01 += w * g9[1]
+                m02 += w * g9[2]
+                m10 += w * g9[3]
+                m11 += w * g9[4]
+                m12 += w * g9[5]
+                m20 += w * g9[6]
+                m21 += w * g9[7]
+                m22 += w * g9[8]
+                vol += w
+            r00, r01, r02, r10, r11, r12, r20, r21, r22 = polar_rotation(
+                m00 / vol, m01 / vol, m02 / vol, m10 / vol, m11 / vol, m12 / vol,
+                m20 / vol, m21 / vol, m22 / vol)
             e_hg = 0.0
             for m in range(4):
-                q0 = q1 = q2 = 0.0
+                g0 = g1 = g2 = 0.0
                 for a in range(8):
                     n = 3 * nodes[c, a]
                     gm = gamma[c, m, a]
-                    q0 += gm * u[n]
-                    q1 += gm * u[n + 1]
-                    q2 += gm * u[n + 2]
-                qs = (q0, q1, q2)
+                    g0 += gm * u[n]
+                    g1 += gm * u[n + 1]
+                    g2 += gm * u[n + 2]
+                # R^T q: the amplitudes in the element's frame
+                qs = (r00 * g0 + r10 * g1 + r20 * g2, r01 * g0 + r11 * g1 + r21 * g2,
+                      r02 * g0 + r12 * g1 + r22 * g2)
                 for i in range(3):
                     dq = qs[i] - hg[0, c, m, i]
                     big_q = hg[1, c, m, i] + phi[c] * k_hg[c, m, i] * dq
                     e_hg += 0.5 * (hg[1, c, m, i] + big_q) * dq
                     hg[2, c, m, i] = qs[i]
                     hg[3, c, m, i] = big_q
-                q0, q1, q2 = hg[3, c, m, 0], hg[3, c, m, 1], hg[3, c, m, 2]
+                l0, l1, l2 = hg[3, c, m, 0], hg[3, c, m, 1], hg[3, c, m, 2]
+                q0 = r00 * l0 + r01 * l1 + r02 * l2  # R Q: back to the global frame
+                q1 = r10 * l0 + r11 * l1 + r12 * l2
+                q2 = r20 * l0 + r21 * l1 + r22 * l2
                 for a in range(8):
                     n = 3 * nodes[c, a]
                     gm = gamma[c, m, a]

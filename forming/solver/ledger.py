@@ -183,7 +183,7 @@ def run_warnings(led: EnergyLedger, opts, mass_added: float, mass_limit: float,
                    f"internal energy (limit {opts.hourglass_limit:.0%}): refine the mesh, "
                    "raise explicit.hourglass or use explicit.integration=full")
     if one_point_crushing:
-        share = {"reduced": "0-57%", "thickness": "48-57%"}.get(opts.integration, "part")
+        share = {"reduced": "0-57%", "thickness": "38-61%"}.get(opts.integration, "part")
         out.append(f"explicit: integration={opts.integration} with a crushable core: one "
                    "point in plane does not crush where the crushing varies across an "
                    f"element (on the hemisphere {share} of the fully integrated crushed "
