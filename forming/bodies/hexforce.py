@@ -15,7 +15,8 @@ Three integrations:
 - ``reduced``: one point per element with the mean shape-function gradients of
   Flanagan and Belytschko (``b = (1/V) int grad N dV``, exact volume), as Abaqus'
   C3D8R, stabilised against its hourglass modes by the stiffness form of Flanagan and
-  Belytschko. The stiffness of each mode and displacement component is ``kappa``
+  Belytschko, measured in the element's rotated frame (corotational, :mod:`.hexkernels`).
+  The stiffness of each mode and displacement component is ``kappa``
   times what the fully integrated elastic element puts against that mode
   (:func:`mode_stiffness`): anisotropy and element shape are accounted for, and
   ``kappa = 1`` restores the full element's resistance to pure hourglass modes. The
