@@ -340,3 +340,17 @@ def test_one_point_crushing_is_flagged_in_the_run_s_warnings():
     (warning,) = run_warnings(quiet, ExplicitOptions(integration="thickness"), 0.0, 0.05,
                               one_point_crushing=True)
     assert "integration=thickness" in warning and "38-61%" in warning
+
+
+def test_an_unknown_integration_is_an_error_naming_the_option():
+    """``explicit.integration`` takes full, reduced or thickness; anything else is an
+    InputError naming the option and the three choices (a typo must not run silently
+    with another element)."""
+    from forming.errors import InputError
+
+    with pytest.raises(InputError, match="explicit.integration") as err:
+        ExplicitOptions(integration="thick")
+    assert all(k in str(err.value) for k in ("full", "reduced", "thickness"))
+    body = _body(ElasticSolid(IsotropicElasticity(10.0, 0.3)))
+    with pytest.raises(InputError, match="explicit.integration"):
+        body.explicit_internal_force("one_point", 0.1, DENSITY)

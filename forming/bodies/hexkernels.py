@@ -87,6 +87,14 @@ def right_cauchy_green(u, nodes, grads, fm, cm, detf):
 
 
 @numba.njit(cache=True, inline="always")
+def cofactors(a00, a01, a02, a10, a11, a12, a20, a21, a22):
+    """The cofactor matrix of a 3 x 3 matrix (row-major 9-tuple): ``A^-T det A``."""
+    return (a11 * a22 - a12 * a21, a12 * a20 - a10 * a22, a10 * a21 - a11 * a20,
+            a02 * a21 - a01 * a22, a00 * a22 - a02 * a20, a01 * a20 - a00 * a21,
+            a01 * a12 - a02 * a11, a02 * a10 - a00 * a12, a00 * a11 - a01 * a10)
+
+
+@numba.njit(cache=True, inline="always")
 def polar_rotation(a00, a01, a02, a10, a11, a12, a20, a21, a22):
     """The rotation R of the polar decomposition F = R U (Higham's iteration).
 
@@ -94,17 +102,9 @@ def polar_rotation(a00, a01, a02, a10, a11, a12, a20, a21, a22):
     iterations for the stretches of a crushing core. Row-major 9-tuple.
     """
     for _ in range(30):
-        c00 = a11 * a22 - a12 * a21
-        c01 = a12 * a20 - a10 * a22
-        c02 = a10 * a21 - a11 * a20
-        c10 = a02 * a21 - a01 * a22
-        c11 = a00 * a22 - a02 * a20
-        c12 = a01 * a20 - a00 * a21
-        c20 = a01 * a12 - a02 * a11
-        c21 = a02 * a10 - a00 * a12
-        c22 = a00 * a11 - a01 * a10
-        det = a00 * c00 + a01 * c01 + a02 * c02
-        h = 0.5 / det  # R^-T = cof(R) / det R
+        c00, c01, c02, c10, c11, c12, c20, c21, c22 = cofactors(
+            a00, a01, a02, a10, a11, a12, a20, a21, a22)
+        h = 0.5 / (a00 * c00 + a01 * c01 + a02 * c02)  # R^-T = cof(R) / det R
         b00, b01, b02 = 0.5 * a00 + h * c00, 0.5 * a01 + h * c01, 0.5 * a02 + h * c02
         b10, b11, b12 = 0.5 * a10 + h * c10, 0.5 * a11 + h * c11, 0.5 * a12 + h * c12
         b20, b21, b22 = 0.5 * a20 + h * c20, 0.5 * a21 + h * c21, 0.5 * a22 + h * c22
@@ -115,6 +115,28 @@ def polar_rotation(a00, a01, a02, a10, a11, a12, a20, a21, a22):
         if change < 1e-13:
             break
     return a00, a01, a02, a10, a11, a12, a20, a21, a22
+
+
+@numba.njit(cache=True, inline="always")
+def element_rotation(fm, weights, c):
+    """The polar rotation of element ``c``'s volume-mean deformation gradient."""
+    nq = weights.shape[1]
+    m0 = m1 = m2 = m3 = m4 = m5 = m6 = m7 = m8 = vol = 0.0
+    for q in range(nq):
+        w = weights[c, q]
+        g9 = fm[c * nq + q]
+        m0 += w * g9[0]
+        m1 += w * g9[1]
+        m2 += w * g9[2]
+        m3 += w * g9[3]
+        m4 += w * g9[4]
+        m5 += w * g9[5]
+        m6 += w * g9[6]
+        m7 += w * g9[7]
+        m8 += w * g9[8]
+        vol += w
+    return polar_rotation(m0 / vol, m1 / vol, m2 / vol, m3 / vol, m4 / vol, m5 / vol,
+                          m6 / vol, m7 / vol, m8 / vol)
 
 
 @numba.njit(cache=True)
@@ -175,15 +197,8 @@ def nodal_forces(u, nodes, grads, weights, fm, stress, gamma, k_hg, phi, hg, wor
             p21 = w * (f20 * s01 + f21 * s11 + f22 * s12)
             p22 = w * (f20 * s02 + f21 * s12 + f22 * s22)
             # cofactors of F: F^-T = cof(F) / det F (the current gradients)
-            c00 = f11 * f22 - f12 * f21
-            c01 = f12 * f20 - f10 * f22
-            c02 = f10 * f21 - f11 * f20
-            c10 = f02 * f21 - f01 * f22
-            c11 = f00 * f22 - f02 * f20
-            c12 = f01 * f20 - f00 * f21
-            c20 = f01 * f12 - f02 * f11
-            c21 = f02 * f10 - f00 * f12
-            c22 = f00 * f11 - f01 * f10
+            c00, c01, c02, c10, c11, c12, c20, c21, c22 = cofactors(
+                f00, f01, f02, f10, f11, f12, f20, f21, f22)
             det = f00 * c00 + f01 * c01 + f02 * c02
             gg = 0.0
             for a in range(nn):
@@ -203,24 +218,7 @@ def nodal_forces(u, nodes, grads, weights, fm, stress, gamma, k_hg, phi, hg, wor
             # the element's rotation (polar factor of its mean F): the modes are measured
             # and resisted in the element's rotated frame, so that a bent element turned
             # through a large angle does not load another mode's stiffness
-            m00 = m01 = m02 = m10 = m11 = m12 = m20 = m21 = m22 = 0.0
-            vol = 0.0
-            for q in range(nq):
-                w = weights[c, q]
-                g9 = fm[c * nq + q]
-                m00 += w * g9[0]
-                m01 += w * g9[1]
-                m02 += w * g9[2]
-                m10 += w * g9[3]
-                m11 += w * g9[4]
-                m12 += w * g9[5]
-                m20 += w * g9[6]
-                m21 += w * g9[7]
-                m22 += w * g9[8]
-                vol += w
-            r00, r01, r02, r10, r11, r12, r20, r21, r22 = polar_rotation(
-                m00 / vol, m01 / vol, m02 / vol, m10 / vol, m11 / vol, m12 / vol,
-                m20 / vol, m21 / vol, m22 / vol)
+            r00, r01, r02, r10, r11, r12, r20, r21, r22 = element_rotation(fm, weights, c)
             e_hg = 0.0
             for m in range(4):
                 g0 = g1 = g2 = 0.0
