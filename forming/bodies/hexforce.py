@@ -227,6 +227,14 @@ def loop_timing(loops: list[HexInternalForce], comm) -> dict[str, float]:
     return {"element_loops_s": most, "element_loops_imbalance": most / mean if mean else 1.0}
 
 
+def smallest_full_det(loops: list[HexInternalForce]) -> float:
+    """Smallest det F of the hourglass-controlled loops at their bodies' own points.
+
+    Over the output intervals so far, the same on every rank (1 without such loops).
+    """
+    return min((loop.min_det_full for loop in loops), default=1.0)
+
+
 class HexInternalForce:
     """Internal forces of one solid body on hexahedra, element by element.
 
@@ -331,6 +339,10 @@ class HexInternalForce:
         self.modulus = modulus
         self.plastic_floor = plastic_floor
         self.omega2 = 0.0  # the largest element frequency bound of the rank [1/s^2]
+        # smallest det F at the body's own (fully integrated) points, over the output
+        # intervals: an hourglass-controlled element can fold there while its own points
+        # stay positive
+        self.min_det_full = 1.0
         self.seconds = 0.0  # wall time of the rank's element work (no scatters) [s]
         self.pull()
 
@@ -425,7 +437,12 @@ class HexInternalForce:
         return (dom.point_layout(1, 24), dom.point_layout(1, None))
 
     def push(self) -> None:
-        """Copy the converged plastic state to the body's points (outputs, snapshots)."""
+        """Copy the converged plastic state to the body's points (outputs, snapshots).
+
+        An hourglass-controlled loop also updates :attr:`min_det_full` (collective).
+        """
+        if self.reduced:
+            self.min_det_full = min(self.min_det_full, self.body.min_det_F())
         ps = self.body.plastic
         if ps is None or ps.ep is self.ep:  # (the body's own arrays: nothing to copy)
             self.body.invalidate()

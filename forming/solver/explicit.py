@@ -10,7 +10,8 @@ predict, solve, accept or roll back, output) is shared with the implicit solver.
 
 Within an increment nothing is assembled through forms where compiled loops exist: a
 solid on hexahedra computes its internal forces element by element
-(:class:`~forming.bodies.hexforce.HexInternalForce`, full or reduced integration), and
+(:class:`~forming.bodies.hexforce.HexInternalForce`, full, reduced or thickness
+integration), and
 a tool contact node by node (:class:`~forming.contact.nodal.NodalContact`); fabric
 skins, interfaces and distributed loads are assembled from their forms. Works are summed
 over ranks once per output interval (:class:`~forming.solver.ledger.EnergyLedger`).
@@ -32,7 +33,7 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat, signals  # noqa: F401
-from forming.bodies.hexforce import loop_timing
+from forming.bodies.hexforce import loop_timing, smallest_full_det
 from forming.contact.selfcontact import SelfContactTerm
 from forming.errors import InputError, KernelFailure
 from forming.model import Model
@@ -264,21 +265,17 @@ class ExplicitSolver:
             self._impulse[tool.contact.name] += force * dt
         for key, st, w in self._reactions:
             self._reaction_impulse[key] += dt * float(st.f_all.x.array[: st.n_owned] @ w)
-        # what the tools put in, less what reached the nodes, went into friction (and
-        # the penalty springs of contacts and interfaces)
-        # -R . d over the free dofs is the kinetic energy gained plus the mass damping's
-        # work (which is not in R): the damping goes to its ledger only
+        # what the tools put in, less what reached the nodes, went into friction (and the
+        # contacts' penalty springs); -R . d over the free dofs is the kinetic energy gained
+        # plus the mass damping's work (not in R): the damping goes to its ledger only
         self.ledger.add(internal=w_int, external=w_ext + w_int + w_visc - on_bodies + tools,
                         friction=tools - on_bodies, damping=w_damp + w_visc)
 
     def _kinetic(self) -> float:
         """Kinetic energy of this rank's nodes: v(n) = v(n-1/2) + dt/2 a(n)."""
-        ke = 0.0
-        for st in self.states:
-            n = st.n_owned
-            v = st.v[:n] + 0.5 * self.dt * st.a[:n]
-            ke += 0.5 * float(st.m[:n] @ v**2)
-        return ke
+        half = 0.5 * self.dt
+        return sum(0.5 * float(st.m[: st.n_owned] @ (st.v + half * st.a)[: st.n_owned] ** 2)
+                   for st in self.states)
 
     def _hourglass(self) -> float:
         """Hourglass energy of this rank's elements [N mm]."""
@@ -485,16 +482,18 @@ class ExplicitSolver:
         return {"explicit": asdict(self.options)}
 
     def validity(self) -> dict[str, bool]:
-        """Quasi-static, little added mass, little hourglass energy."""
+        """Quasi-static, little added mass, little hourglass energy, no folded element."""
         led, opts = self.ledger, self.options
         return {"quasi_static": led.ke_ie_max <= opts.quasi_static_limit,
                 "mass_added_below_limit": self.mass_added_fraction <= MASS_ADDED_LIMIT,
-                "hourglass_below_limit": led.hg_ie_max <= opts.hourglass_limit}
+                "hourglass_below_limit": led.hg_ie_max <= opts.hourglass_limit,
+                "elements_not_folded": smallest_full_det(self._loop_list) > 0.0}
 
     def warnings(self) -> list[str]:
-        """Not quasi-static, much added mass, hourglassing, one-point crushing."""
+        """Not quasi-static, much added mass, hourglassing, one-point crushing, folding."""
         return run_warnings(self.ledger, self.options, self.mass_added_fraction, MASS_ADDED_LIMIT,
-                            any(loop.crushes_at_one_point for loop in self._loop_list))
+                            any(loop.crushes_at_one_point for loop in self._loop_list),
+                            smallest_full_det(self._loop_list))
 
     def close(self) -> None:
         """Nothing: no PETSc solver (the element loops and contacts are its own)."""
