@@ -33,7 +33,7 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat, signals  # noqa: F401
-from forming.bodies.hexforce import loop_timing, smallest_full_det
+from forming.bodies.hexforce import loop_timing, smallest_corner_det
 from forming.contact.selfcontact import SelfContactTerm
 from forming.errors import InputError, KernelFailure
 from forming.model import Model
@@ -487,13 +487,13 @@ class ExplicitSolver:
         return {"quasi_static": led.ke_ie_max <= opts.quasi_static_limit,
                 "mass_added_below_limit": self.mass_added_fraction <= MASS_ADDED_LIMIT,
                 "hourglass_below_limit": led.hg_ie_max <= opts.hourglass_limit,
-                "elements_not_folded": smallest_full_det(self._loop_list) > 0.0}
+                "elements_not_folded": smallest_corner_det(self._loop_list) > 0.0}
 
     def warnings(self) -> list[str]:
         """Not quasi-static, much added mass, hourglassing, one-point crushing, folding."""
         return run_warnings(self.ledger, self.options, self.mass_added_fraction, MASS_ADDED_LIMIT,
                             any(loop.crushes_at_one_point for loop in self._loop_list),
-                            smallest_full_det(self._loop_list))
+                            smallest_corner_det(self._loop_list))
 
     def close(self) -> None:
         """Nothing: no PETSc solver (the element loops and contacts are its own)."""
