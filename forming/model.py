@@ -450,6 +450,9 @@ class Model:
     def history_columns(self, forces: ForceSampler) -> dict[str, float]:
         """The model's columns: smallest det F, reactions, tool forces, penetration, interfaces.
 
+        The smallest det F at the bodies' points (``min_det_F``) and, for P1 hexahedra,
+        at their elements' corners (``min_corner_det``, over the reference value).
+
         Each object writes its own; the model only adds the largest penetration over its
         tool contacts.
         """
@@ -460,6 +463,9 @@ class Model:
         owners: dict[str, str] = {}
         merge(row, {"min_det_F": min(b.min_det_F() for b in self.bodies.values())},
               "model", owners)
+        corners = [d for b in self.bodies.values() if (d := b.track_corners()) is not None]
+        if corners:
+            merge(row, {"min_corner_det": min(corners)}, "model", owners)
         merge(row, self.dirichlet.history_columns(forces), "dirichlet", owners)
         for c in self.contacts:
             merge(row, c.history_columns(forces), f"contact {c.name}", owners)

@@ -291,13 +291,12 @@ def test_an_element_folded_in_its_hourglass_mode_is_flagged(integration):
     ``u_z = a xyz / h^2`` about the centre of a cube of side h leaves F = I at its one
     point and at its two points on the thickness axis, puts ``det F = 1 - a/12`` at four
     of the fully integrated points (0.5 here: not even those see it) and ``1 - a/4`` at
-    four corners (-0.5: folded). The output interval's check of the corners must see it,
-    and the run must say so in its warnings and validity; a rigid turn must not. A
-    failure means a folded core (as under the square punch's corner, docs/validation.md)
-    reports itself as a valid run, or a sound one as folded.
+    four corners (-0.5: folded). The corner watch must see it, the body must warn and an
+    explicit run with such a loop count itself invalid; a rigid turn must not. A failure
+    means a folded core (as under the square punch's corner, docs/validation.md) reports
+    itself as a valid run, or a sound one as folded.
     """
     from forming.bodies.hexforce import smallest_corner_det
-    from forming.solver.ledger import EnergyLedger, run_warnings
 
     h, a = 10.0, 6.0
     body = _body(honeycomb_core("isotropic", plastic=False), size=(h, h, h), cells=(1, 1, 1))
@@ -306,19 +305,17 @@ def test_an_element_folded_in_its_hourglass_mode_is_flagged(integration):
     t = np.radians(50.0)
     turn = np.array([[np.cos(t), -np.sin(t), 0.0], [np.sin(t), np.cos(t), 0.0], [0, 0, 1.0]])
     _forces(body, loop, (X @ turn.T - X).ravel())
-    loop.push()
-    assert loop.min_corner_det == pytest.approx(1.0, rel=1e-12)
+    assert body.track_corners() == pytest.approx(1.0, rel=1e-12)
+    assert body.warnings() == []
     u = np.zeros_like(X)
     u[:, 2] = a * X[:, 0] * X[:, 1] * X[:, 2] / h**2
     _forces(body, loop, u.ravel())  # no failure: its own points are not inverted
     assert body.min_det_F() == pytest.approx(1.0 - a / 12.0, rel=1e-9)
-    loop.push()
-    assert loop.min_corner_det == pytest.approx(1.0 - a / 4.0, rel=1e-9)
-    assert smallest_corner_det([loop]) == loop.min_corner_det  # the run's validity takes it
-    opts = ExplicitOptions(integration=integration)
-    (warning,) = run_warnings(EnergyLedger(), opts, 0.0, 0.05,
-                              min_corner_det=loop.min_corner_det)
+    assert body.track_corners() == pytest.approx(1.0 - a / 4.0, rel=1e-9)
+    assert smallest_corner_det([loop]) == body.folded  # the run's validity takes it
+    (warning,) = body.warnings()
     assert "folded" in warning and "-0.5" in warning
+    assert smallest_corner_det([body.explicit_internal_force("full", 0.1, DENSITY)]) == 1.0
 
 
 def loop_shape(points):

@@ -100,6 +100,9 @@ class DeformableBody(Protocol):
     def min_det_F(self) -> float:
         """Smallest Jacobian determinant over all ranks."""
 
+    def track_corners(self) -> float | None:
+        """Smallest corner determinant of its hexahedra now (collective), or None."""
+
     def warnings(self) -> list[str]:
         """What a user should know about the run's use of this body (collective)."""
 
@@ -178,6 +181,10 @@ class BodyBase:
     def snapshot_layout(self) -> tuple:
         """The displacement's layout (see :meth:`snapshot`)."""
         return (self.domain.layout(self.V), None)
+
+    def track_corners(self) -> float | None:
+        """None by default: no P1 hexahedra to watch."""
+        return None
 
     def warnings(self) -> list[str]:
         """None by default."""

@@ -60,7 +60,6 @@ _XI = 2.0 * basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedro
 _H = np.array([_XI[:, 0] * _XI[:, 1], _XI[:, 1] * _XI[:, 2], _XI[:, 2] * _XI[:, 0],
                _XI[:, 0] * _XI[:, 1] * _XI[:, 2]])
 _P1 = basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron, 1)
-_CORNER_DN = _P1.tabulate(1, _P1.points)[1:4, :, :, 0]  # (3, corner, node): d N / d xi
 
 
 def shape_gradients(x: np.ndarray, points: np.ndarray,
@@ -228,25 +227,13 @@ def loop_timing(loops: list[HexInternalForce], comm) -> dict[str, float]:
     return {"element_loops_s": most, "element_loops_imbalance": most / mean if mean else 1.0}
 
 
-def corner_dets(x: np.ndarray) -> np.ndarray:
-    """Determinant of each trilinear element's map at its 8 corners.
-
-    Args:
-        x: (n_cells, 8, 3) node coordinates, basix's vertex order.
-
-    Returns:
-        (n_cells, 8) det of d x / d xi at the vertices. An element is folded where one is
-        at or below 0: its points (one, two or eight inside it) may not see it.
-    """
-    return np.linalg.det(np.einsum("cai,kqa->cqik", x, _CORNER_DN))
-
-
 def smallest_corner_det(loops: list[HexInternalForce]) -> float:
-    """Smallest corner det of the hourglass-controlled loops' elements, over the reference.
+    """Smallest corner determinant ratio of the hourglass-controlled loops' bodies so far.
 
-    Over the output intervals so far, the same on every rank (1 without such loops).
+    Over the accepted states (the history's ``min_corner_det``), the same on every rank;
+    1 without such loops.
     """
-    return min((loop.min_corner_det for loop in loops), default=1.0)
+    return min((loop.body.folded for loop in loops if loop.reduced), default=1.0)
 
 
 class HexInternalForce:
@@ -353,12 +340,6 @@ class HexInternalForce:
         self.modulus = modulus
         self.plastic_floor = plastic_floor
         self.omega2 = 0.0  # the largest element frequency bound of the rank [1/s^2]
-        # smallest det of the elements' maps at their corners over the output intervals,
-        # relative to the reference: an hourglass-controlled element can fold there while
-        # its own points stay positive
-        self.min_corner_det = 1.0
-        self._x0 = x
-        self._corner_det0 = corner_dets(x) if self.reduced else None
         self.seconds = 0.0  # wall time of the rank's element work (no scatters) [s]
         self.pull()
 
@@ -453,15 +434,7 @@ class HexInternalForce:
         return (dom.point_layout(1, 24), dom.point_layout(1, None))
 
     def push(self) -> None:
-        """Copy the converged plastic state to the body's points (outputs, snapshots).
-
-        An hourglass-controlled loop also updates :attr:`min_corner_det` (collective).
-        """
-        if self.reduced:
-            xc = self._x0 + self.body.u.x.array.reshape(-1, 3)[self.nodes]
-            local = np.min(corner_dets(xc) / self._corner_det0, initial=np.inf)
-            self.min_corner_det = min(self.min_corner_det,
-                                      self.body.mesh.comm.allreduce(local, op=MPI.MIN))
+        """Copy the converged plastic state to the body's points (outputs, snapshots)."""
         ps = self.body.plastic
         if ps is None or ps.ep is self.ep:  # (the body's own arrays: nothing to copy)
             self.body.invalidate()

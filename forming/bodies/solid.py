@@ -19,6 +19,7 @@ from mpi4py import MPI
 
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
 from forming.bodies.base import BodyBase
+from forming.bodies.corners import CornerWatch
 from forming.bodies.hexforce import HexInternalForce
 from forming.bodies.hextangent import HexTangent
 from forming.domain import BodyDomain
@@ -113,6 +114,12 @@ class SolidBody(BodyBase):
         if getattr(self.material, "viscosity", 0.0) > 0 and travel is None:
             raise InputError("material.viscosity", "a viscous regularisation is per mm of "
                              "travel, and nothing in the scene moves: give Scene.travel")
+        # the corners of P1 hexahedra, watched at every accepted state (history)
+        self._corners = None
+        if msh.topology.cell_name() == "hexahedron" and spec.degree == 1:
+            nodes = self.V.dofmap.list[self.point_cells].astype(np.int64)
+            self._corners = CornerWatch(nodes, self.V.tabulate_dof_coordinates()[nodes])
+        self.folded = 1.0  # smallest corner determinant ratio so far
         self._warm_kernel()
 
     def _band_geometry(self) -> tuple[np.ndarray, int]:
@@ -300,6 +307,18 @@ class SolidBody(BodyBase):
         local = float(det.min()) if det.size else np.inf
         return self.mesh.comm.allreduce(local, op=MPI.MIN)
 
+    def track_corners(self) -> float | None:
+        """Smallest det of the elements' maps at their corners over the reference, now.
+
+        Collective; None for a body that is not of P1 hexahedra. The smallest over the
+        calls (the accepted states: the history's ``min_corner_det``) is :attr:`folded`.
+        """
+        if self._corners is None:
+            return None
+        now = self.mesh.comm.allreduce(self._corners.smallest(self.u.x.array), op=MPI.MIN)
+        self.folded = min(self.folded, now)
+        return now
+
     def cell_average(self, values: np.ndarray) -> np.ndarray:
         """Average of point values (of :attr:`point_cells`) over each owned cell."""
         if self.n_local_cells == 0:  # a rank may own none of a body's cells
@@ -307,22 +326,28 @@ class SolidBody(BodyBase):
         return values.reshape(self.n_local_cells, -1).mean(axis=1)
 
     def warnings(self) -> list[str]:
-        """A crushing strain beyond the last point of the material's curve (collective).
+        """Folded elements; a crushing strain beyond the material's curve (collective).
 
-        The hardening law is extrapolated past the curve's last point; a run that gets
-        there depends on an extrapolation nobody measured.
+        A folded element (:attr:`folded` at or below 0) has a node pushed through its
+        neighbour. The hardening law is extrapolated past the curve's last point; a run
+        that gets there depends on an extrapolation nobody measured.
         """
+        out = [] if self.folded > 0.0 else [
+            f"body {self.name}: elements folded at their corners (the det of an element's "
+            f"map down to {self.folded:.3g} of its reference value) while their points kept "
+            "det F > 0: a node was pushed through its neighbour (under a punch's corner, "
+            "docs/validation.md); refine the mesh there"]
         if self.damaging:
-            return self._band_warnings()
+            return out + self._band_warnings()
         table = getattr(self.material, "hardening", None)
         if self.plastic is None or table is None:
-            return []
+            return out
         reached = self.mesh.comm.allreduce(float(self.plastic.evp.max(initial=0.0)), op=MPI.MAX)
         last = float(table.evp[-1])
         if reached <= last * (1 + 1e-9):
-            return []
+            return out
         curve = self.material.curve
-        return [f"body {self.name}: volumetric plastic strain {reached:.3g} passed the last "
+        return out + [f"body {self.name}: volumetric plastic strain {reached:.3g} passed the last "
                 f"point of its compression curve ({last:.3g}, nominal strain "
                 f"{curve.strain[-1]:g}, from {curve.source}): the hardening was extrapolated"]
 

@@ -490,10 +490,9 @@ class ExplicitSolver:
                 "elements_not_folded": smallest_corner_det(self._loop_list) > 0.0}
 
     def warnings(self) -> list[str]:
-        """Not quasi-static, much added mass, hourglassing, one-point crushing, folding."""
+        """Not quasi-static, much added mass, hourglassing, one-point crushing."""
         return run_warnings(self.ledger, self.options, self.mass_added_fraction, MASS_ADDED_LIMIT,
-                            any(loop.crushes_at_one_point for loop in self._loop_list),
-                            smallest_corner_det(self._loop_list))
+                            any(loop.crushes_at_one_point for loop in self._loop_list))
 
     def close(self) -> None:
         """Nothing: no PETSc solver (the element loops and contacts are its own)."""
