@@ -347,9 +347,10 @@ class SolidBody(BodyBase):
         if reached <= last * (1 + 1e-9):
             return out
         curve = self.material.curve
-        return out + [f"body {self.name}: volumetric plastic strain {reached:.3g} passed the last "
-                f"point of its compression curve ({last:.3g}, nominal strain "
-                f"{curve.strain[-1]:g}, from {curve.source}): the hardening was extrapolated"]
+        return out + [f"body {self.name}: volumetric plastic strain {reached:.3g} passed the "
+                      f"last point of its compression curve ({last:.3g}, nominal strain "
+                      f"{curve.strain[-1]:g}, from {curve.source}): the hardening was "
+                      "extrapolated"]
 
     def _band_warnings(self) -> list[str]:
         """Crack bands wider than the material's widest (collective)."""

@@ -11,10 +11,9 @@ predict, solve, accept or roll back, output) is shared with the implicit solver.
 Within an increment nothing is assembled through forms where compiled loops exist: a
 solid on hexahedra computes its internal forces element by element
 (:class:`~forming.bodies.hexforce.HexInternalForce`, full, reduced or thickness
-integration), and
-a tool contact node by node (:class:`~forming.contact.nodal.NodalContact`); fabric
-skins, interfaces and distributed loads are assembled from their forms. Works are summed
-over ranks once per output interval (:class:`~forming.solver.ledger.EnergyLedger`).
+integration), and a tool contact node by node (:class:`~forming.contact.nodal.NodalContact`);
+fabric skins, interfaces and distributed loads are assembled from their forms. Works are
+summed over ranks once per output interval (:class:`~forming.solver.ledger.EnergyLedger`).
 
 The load parameter ``s(tau)`` follows a smooth step over ``loading_time`` seconds (no
 velocity or acceleration at the ends) or a ramp: docs/theory.md, section 12.
@@ -273,9 +272,12 @@ class ExplicitSolver:
 
     def _kinetic(self) -> float:
         """Kinetic energy of this rank's nodes: v(n) = v(n-1/2) + dt/2 a(n)."""
-        half = 0.5 * self.dt
-        return sum(0.5 * float(st.m[: st.n_owned] @ (st.v + half * st.a)[: st.n_owned] ** 2)
-                   for st in self.states)
+        ke = 0.0
+        for st in self.states:
+            n = st.n_owned
+            v = st.v[:n] + 0.5 * self.dt * st.a[:n]
+            ke += 0.5 * float(st.m[:n] @ v**2)
+        return ke
 
     def _hourglass(self) -> float:
         """Hourglass energy of this rank's elements [N mm]."""
