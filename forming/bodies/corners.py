@@ -1,9 +1,9 @@
 """Elements folded at their corners: the trilinear map's determinant at its vertices.
 
-A hexahedron whose node has been pushed through its neighbour (a punch's corner pressing
-one column of a crushable core) is folded near that node, while its quadrature points,
-one, two or eight inside it, may all keep a positive det F. The map's determinant at the
-8 vertices sees it (docs/theory.md, section 12, "Folded elements").
+A hexahedron can fold near one of its nodes (a punch's corner pressing one column of a
+crushable core into the layer below) while its quadrature points, one, two or eight
+inside it, all keep a positive det F. The map's determinant at the 8 vertices sees it
+(docs/theory.md, section 12, "Folded elements").
 """
 
 from __future__ import annotations

@@ -328,15 +328,15 @@ class SolidBody(BodyBase):
     def warnings(self) -> list[str]:
         """Folded elements; a crushing strain beyond the material's curve (collective).
 
-        A folded element (:attr:`folded` at or below 0) has a node pushed through its
-        neighbour. The hardening law is extrapolated past the curve's last point; a run
+        A folded element (:attr:`folded` at or below 0) has turned inside out near a node.
+        The hardening law is extrapolated past the curve's last point; a run
         that gets there depends on an extrapolation nobody measured.
         """
         out = [] if self.folded > 0.0 else [
             f"body {self.name}: elements folded at their corners (the det of an element's "
             f"map down to {self.folded:.3g} of its reference value) while their points kept "
-            "det F > 0: a node was pushed through its neighbour (under a punch's corner, "
-            "docs/validation.md); refine the mesh there"]
+            "det F > 0 (as under a punch's corner, docs/validation.md); refine the mesh "
+            "there"]
         if self.damaging:
             return out + self._band_warnings()
         table = getattr(self.material, "hardening", None)
