@@ -138,6 +138,8 @@ def test_case_parameters_out_of_range(tmp_path):
         NewtonOptions(force_rtol=-1.0)
     with pytest.raises(InputError, match=r"solver.blr_tolerance"):
         NewtonOptions(linear_solver="mumps_blr", blr_tolerance=0.0)
+    with pytest.raises(InputError, match=r"^newton.lu_precision: .*'half'"):
+        NewtonOptions(lu_precision="half")
 
 
 def test_affine_displacement_components():

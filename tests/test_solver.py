@@ -170,16 +170,34 @@ def test_multipliers_inside_newton_equal_uzawa(tmp_path):
 def test_auto_linear_solver_follows_the_size():
     """``auto`` is MUMPS's plain LU below the scaling study's crossing and its block
     low-rank LU from there; a several-body Jacobian drops its exact zeros below
-    :data:`DROP_ZEROS_BELOW` unknowns and keeps them from there; a choice named
-    explicitly is kept at any size. A failure means a model gets a linear solver or a
-    matrix pattern its size was not measured for."""
-    from forming.solver.options import BLR_FROM_UNKNOWNS, DROP_ZEROS_BELOW, NewtonOptions
+    :data:`DROP_ZEROS_BELOW` unknowns and keeps them from there; MUMPS factorises in
+    single precision (refined in double) from :data:`SINGLE_FROM_UNKNOWNS` on, in double
+    below (where the two are level: the test suite's models keep it), an AMG solver
+    factorises nothing; a choice named explicitly is kept at any size. A failure means
+    a model gets a linear solver, a matrix pattern or a precision its size was not
+    measured for."""
+    from forming.solver.options import (
+        BLR_FROM_UNKNOWNS,
+        DROP_ZEROS_BELOW,
+        SINGLE_FROM_UNKNOWNS,
+        NewtonOptions,
+    )
 
     auto = NewtonOptions()
     assert auto.linear_solver == "auto"
     assert auto.for_size(BLR_FROM_UNKNOWNS - 1).linear_solver == "mumps"
     assert auto.for_size(BLR_FROM_UNKNOWNS).linear_solver == "mumps_blr"
-    assert auto.for_size(BLR_FROM_UNKNOWNS).petsc_options()["mat_mumps_icntl_35"] == "2"
+    large = auto.for_size(BLR_FROM_UNKNOWNS).petsc_options()
+    assert large["single_mat_mumps_icntl_35"] == large["double_mat_mumps_icntl_35"] == "2"
+    assert large["single_ksp_type"] == "fgmres" and large["single_pc_precision"] == "single"
+    assert SINGLE_FROM_UNKNOWNS == 5_000
+    assert auto.for_size(SINGLE_FROM_UNKNOWNS - 1).lu_precision == "double"
+    assert auto.for_size(SINGLE_FROM_UNKNOWNS).lu_precision == "single"
+    assert auto.for_size(SINGLE_FROM_UNKNOWNS).petsc_options()["ksp_type"] == "python"
+    assert NewtonOptions(linear_solver="gamg").for_size(10**6).lu_precision == "double"
+    for named in ("double", "single"):
+        assert NewtonOptions(lu_precision=named).for_size(10**7).lu_precision == named
+        assert NewtonOptions(lu_precision=named).for_size(10).lu_precision == named
     for named in ("mumps", "gamg", "mumps_blr"):
         assert NewtonOptions(linear_solver=named).for_size(10**7).linear_solver == named
     assert auto.for_size(DROP_ZEROS_BELOW - 1).zeros == "drop"
@@ -189,19 +207,23 @@ def test_auto_linear_solver_follows_the_size():
         assert NewtonOptions(zeros=named).for_size(10).zeros == named
 
 
-@pytest.mark.parametrize(("case", "solver"), [("core_compression", "gamg"),
-                                              ("skin_sled", "gamg"),
-                                              ("skin_sled", "mumps_blr")])
+@pytest.mark.parametrize(("case", "solver"), [
+    ("core_compression", "gamg"), ("skin_sled", "gamg"), ("skin_sled", "mumps_blr"),
+    ("core_compression", "mumps,single"), ("skin_sled", "mumps,single"),
+    ("skin_sled", "mumps_blr,single")])
 def test_iterative_solvers_give_the_direct_solvers_answer(case, solver, tmp_path):
-    """GMRES + GAMG (rigid-body near-null space), and GMRES on MUMPS's block low-rank
-    LU, converge to MUMPS's answer.
+    """GMRES + GAMG (rigid-body near-null space), GMRES on MUMPS's block low-rank LU,
+    and MUMPS's LU in single precision refined in double (``,single``:
+    ``newton.lu_precision=single``; Richardson, FGMRES with compression) converge to
+    MUMPS's answer.
 
     ``core_compression`` is one body; ``skin_sled`` two (skin and core in one
-    monolithic matrix, the modes of both moving together). GMRES stops at 1e-10
-    relative, so the Newton iterates agree to about that: every force column within
-    1e-8 of the largest force of the run. A failure means the near-null space is wrong for the
-    layout (GMRES then stalls), the compressed LU too coarse a preconditioner for 200
-    GMRES iterations, or the linear tolerance too loose for Newton.
+    monolithic matrix, the modes of both moving together). The linear solves stop at
+    1e-10 relative, so the Newton iterates agree to about that: every force column
+    within 1e-8 of the largest force of the run. A failure means the near-null space is
+    wrong for the layout (GMRES then stalls), the compressed LU too coarse a
+    preconditioner for 200 GMRES iterations, refinement stopping short of the
+    tolerance, or the linear tolerance too loose for Newton.
 
     GAMG's aggressive coarsening does not repeat from run to run, and on ``skin_sled`` some
     runs fail a linear solve and cut a step (docs/performance.md, "GAMG is not the same
@@ -224,12 +246,97 @@ def test_iterative_solvers_give_the_direct_solvers_answer(case, solver, tmp_path
     why = []
     for attempt in range(3):
         out = tmp_path / f"{solver}{attempt}"
-        s = run_case(case, out, [f"newton.linear_solver={solver}"])
+        name, _, precision = solver.partition(",")
+        s = run_case(case, out, [f"newton.linear_solver={name}",
+                                 f"newton.lu_precision={precision or 'double'}"])
         assert s["status"] == "completed", s["reason"]
         why.append(mismatch(history(out)))
         if not why[-1]:
             break
     assert not why[-1], why
+
+
+def _refined_lu_solve(A, times: int = 1):
+    """Solve ``A x = 1`` with a Newton solver's single-precision KSP, ``times`` times.
+
+    Returns:
+        The KSP's :class:`RefinedLU`, the relative residual, the normwise backward error
+        and the KSP's reason.
+    """
+    from petsc4py import PETSc
+
+    from forming.solver.linear import refined_lu
+    from forming.solver.options import NewtonOptions
+
+    prefix = "refined_test_"
+    opts = PETSc.Options()
+    keys = NewtonOptions(linear_solver="mumps", lu_precision="single").petsc_options()
+    keys = {k: v for k, v in keys.items() if not k.startswith("snes_")}
+    for k, v in keys.items():
+        opts[prefix + k] = v
+    ksp = PETSc.KSP().create(A.getComm())
+    ksp.setOptionsPrefix(prefix)
+    ksp.setOperators(A)
+    ksp.setFromOptions()
+    b = A.createVecLeft()
+    b.set(1.0)
+    x = b.duplicate()
+    for _ in range(times):
+        ksp.solve(b, x)
+    r = b.duplicate()
+    A.mult(x, r)
+    r.axpy(-1.0, b)
+    ctx = refined_lu(ksp)
+    for k in keys:
+        opts.delValue(prefix + k)
+    inf = PETSc.NormType.INFINITY
+    # the normwise backward error: what a stable LU keeps at round-off, whatever the
+    # condition number
+    backward = r.norm(inf) / (A.norm(inf) * x.norm(inf) + b.norm(inf))
+    return ctx, r.norm() / b.norm(), backward, ksp.getConvergedReason()
+
+
+def _laplacian(n: int, shift: float):
+    """The 1D Laplacian with free ends plus ``shift`` on the diagonal (AIJ, serial)."""
+    from petsc4py import PETSc
+
+    A = PETSc.Mat().createAIJ([n, n], nnz=3, comm=PETSc.COMM_SELF)
+    for i in range(n):
+        cols = [j for j in (i - 1, i, i + 1) if 0 <= j < n]
+        vals = [-1.0 if j != i else len(cols) - 1 + shift for j in cols]
+        A.setValues(i, cols, vals)
+    A.assemble()
+    return A
+
+
+def test_the_single_precision_lu_is_refined_or_falls_back_to_double():
+    """A single-precision LU refined in double solves to 1e-10, or hands over to double.
+
+    A well-conditioned matrix (the 1D Laplacian shifted by 1: condition number about 5)
+    is solved by refinement alone, in a few iterations, to the tolerance 1e-10 on the
+    true residual. A nearly singular one (shifted by 1e-10: condition number about
+    4e10, far past what single precision's round-off 6e-8 can refine) stops refining,
+    and the double LU of the same matrix gives the answer: its normwise backward error
+    at double round-off (1e-13 allowed), where ten refinements of the single LU leave
+    it at 6e-9 and a residual 13 times the right-hand side.
+    Solved again and again, the nearly singular matrix stops the refinement for good
+    after the trial of 8 solves (every later solve goes to the double LU at once).
+    A failure means the refinement stops short of the tolerance, or the fallback does
+    not happen and Newton would get a wrong step, or a model that refinement cannot
+    solve keeps paying for it.
+    """
+    ctx, res, backward, reason = _refined_lu_solve(_laplacian(200, 1.0))
+    assert reason > 0 and res <= 1e-10 and backward <= 1e-13, (reason, res, backward)
+    assert ctx.counts()["double_fallbacks"] == 0 and ctx.counts()["refinement_iterations"] <= 4
+    ctx, res, backward, reason = _refined_lu_solve(_laplacian(200, 1e-10))
+    assert reason > 0 and backward <= 1e-13, (reason, res, backward)
+    assert ctx.counts()["double_fallbacks"] == 1, ctx.counts()
+    # a model whose every solve falls back stops trying refinement after its trial
+    trial = ctx.TRIAL
+    ctx, res, backward, reason = _refined_lu_solve(_laplacian(200, 1e-10), trial + 2)
+    assert reason > 0 and backward <= 1e-13, (reason, res, backward)
+    assert ctx.counts()["double_only"] and ctx.counts()["double_fallbacks"] == trial + 2
+    assert ctx.counts()["refinement_iterations"] == 10 * trial, ctx.counts()
 
 
 def test_the_lifting_left_out_where_it_is_zero_changes_no_bit(monkeypatch):

@@ -74,7 +74,7 @@ class ImplicitSolver:
         # there (a Taylor test, a run stopped before its first solve) would leave them
         # "unused" in PETSc's report at exit
         for key in opts:
-            if key.startswith("mat_mumps_"):
+            if "mat_mumps_" in key:  # (also those of a refined LU's inner solvers)
                 cmdline.getString(f"{self.prefix}{key}", None)
         snes = self.problem.solver
         if model.sliding:  # entries between bodies that the forms' sparsity does not have
@@ -431,12 +431,15 @@ class ImplicitSolver:
         multiplier updates made inside it), ``contact_s`` the constraint checks and
         multiplier updates;
         ``per_iteration_ms`` divides each by the Newton iterations; ``linear_solver``
-        names the solver used (``auto`` chosen for the model's size);
+        names the solver used (``auto`` chosen for the model's size), ``lu_precision``
+        the precision of its factorisation (the same);
         ``jacobian_nonzeros`` is the entries the Jacobian stores at the end, over ranks,
         ``jacobian_zeros`` whether its exact zeros were dropped or kept,
         ``jacobian`` whether the body's tangent was ``compiled`` or from its ``forms``,
         ``jacobian_mallocs`` PETSc's count of allocations while entries were inserted into
-        the Jacobian over the run (MatGetInfo's ``mallocs``: entries outside its pattern).
+        the Jacobian over the run (MatGetInfo's ``mallocs``: entries outside its pattern);
+        with a single-precision LU, ``linear_solves``, ``refinement_iterations`` and
+        ``double_fallbacks`` (:class:`~forming.solver.linear.RefinedLU`).
         """
         comm = self.model.comm
 
@@ -453,6 +456,7 @@ class ImplicitSolver:
         its = max(self._work_total, 1)
         info = self.problem.A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)
         return {"linear_solver": self.options.linear_solver,
+                "lu_precision": self.options.lu_precision,
                 "jacobian_zeros": self.options.zeros,
                 "jacobian": self.jacobian_kind,
                 "jacobian_nonzeros": int(info["nz_used"]),
@@ -463,7 +467,9 @@ class ImplicitSolver:
                 "newton_split_s": split,
                 "per_iteration_ms": {k.removesuffix("_s"): 1e3 * v / its
                                      for k, v in split.items()},
-                **self.model.search_timing(), **self._release.summary()}
+                **self.model.search_timing(), **self._release.summary(),
+                **(refined.counts() if (refined := linear.refined_lu(
+                    self.problem.solver.getKSP())) is not None else {})}
 
     def parameters(self) -> dict:
         """Nothing beyond the case's parameters."""

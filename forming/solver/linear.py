@@ -1,7 +1,9 @@
 """Linear solvers of the Newton iteration: MUMPS, or GAMG with rigid-body modes.
 
-``linear_solver="mumps"`` (direct LU) needs nothing here. ``"gamg"`` is GMRES with
-smoothed-aggregation AMG on the whole Jacobian, whose near-null space is the six
+``linear_solver="mumps"`` (direct LU) needs nothing here, unless it factorises in single
+precision (``lu_precision="single"``): :class:`RefinedLU` then refines each solve in
+double and falls back to a double factorisation where that fails. ``"gamg"`` is GMRES
+with smoothed-aggregation AMG on the whole Jacobian, whose near-null space is the six
 rigid-body modes of the model: of its body, or, for several bodies (the monolithic
 matrix of a sandwich), of all bodies moving together, written in the monolithic
 layout (:func:`rigid_body_modes`).
@@ -15,11 +17,15 @@ AMG converged in 137-168 iterations to the same answer as MUMPS (docs/performanc
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 from dolfinx import fem
 from petsc4py import PETSc
 
 from forming.solver.options import NewtonOptions
+
+log = logging.getLogger(__name__)
 
 
 def block_index_sets(A: PETSc.Mat, spaces: list[fem.FunctionSpace]) -> list[PETSc.IS]:
@@ -70,3 +76,100 @@ def configure(A: PETSc.Mat, spaces: list[fem.FunctionSpace], options: NewtonOpti
     """Give the Jacobian ``A`` what the chosen linear solver needs (GAMG: its modes)."""
     if options.linear_solver == "gamg":
         A.setNearNullSpace(rigid_body_modes(A, spaces))
+
+
+class RefinedLU:
+    """A KSP (``ksp_type python``): an LU in single precision, refined in double.
+
+    MUMPS factorises the Jacobian in single precision (half the memory traffic of the
+    double LU, and twice the numbers per vector instruction) and iterative refinement
+    in double precision makes the solve exact to the linear tolerance: Richardson
+    iterations on the true residual, ``x += LU^-1 (b - A x)``, to ``ksp_rtol`` 1e-10
+    (the inner KSP of prefix ``<prefix>single_``; with block low-rank compression
+    FGMRES, since a preconditioner applied in single precision is not the same linear
+    map twice, which GMRES assumes). Refinement converges while the Jacobian's
+    condition number times single precision's round-off (6e-8) stays well below 1; where
+    it does not converge within its iterations (a crushing core with elements near
+    inversion), the same matrix is factorised in double precision (prefix
+    ``<prefix>double_``) and that solve is the answer. Either way the Newton step is
+    the double LU's to the linear tolerance. Where more than half of the solves fell
+    back (after :attr:`TRIAL` solves), every later one is made in double at once: a
+    model whose Jacobians refinement cannot solve pays at most its trial twice. See
+    docs/theory.md, section 7.
+    """
+
+    TRIAL = 8
+
+    def __init__(self) -> None:
+        self._single: PETSc.KSP | None = None
+        self._double: PETSc.KSP | None = None
+        self.solves = 0  # linear solves
+        self.refinements = 0  # refinement iterations over them
+        self.fallbacks = 0  # solves that took the double factorisation
+        self.double_only = False  # refinement given up: double from here on
+
+    def _inner(self, ksp: PETSc.KSP, suffix: str) -> PETSc.KSP:
+        inner = PETSc.KSP().create(ksp.getComm())
+        inner.setOptionsPrefix(f"{ksp.getOptionsPrefix() or ''}{suffix}")
+        inner.setFromOptions()
+        return inner
+
+    def setUp(self, ksp: PETSc.KSP) -> None:  # noqa: N802 (petsc4py's name)
+        """Create the two inner solvers (their options are read once, here)."""
+        if self._single is None:
+            self._single = self._inner(ksp, "single_")
+            self._double = self._inner(ksp, "double_")
+
+    def solve(self, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
+        """Refined single-precision solve; the double LU where refinement fails."""
+        A, P = ksp.getOperators()
+        self.solves += 1
+        its, reason = 0, 0
+        if not self.double_only:
+            self._single.setOperators(A, P)
+            self._single.solve(b, x)
+            its = self._single.getIterationNumber()
+            reason = self._single.getConvergedReason()
+            self.refinements += its
+        if reason <= 0:
+            self.fallbacks += 1
+            if self.fallbacks == 1:
+                log.info("linear solve: refining the single-precision LU stopped (%s after "
+                         "%d iterations); this Jacobian is factorised in double",
+                         _KSP_REASONS.get(reason, reason), its)
+            if (not self.double_only and self.solves >= self.TRIAL
+                    and 2 * self.fallbacks > self.solves):
+                self.double_only = True
+                log.warning("linear solve: %d of %d single-precision solves needed the "
+                            "double LU; the rest of the run factorises in double",
+                            self.fallbacks, self.solves)
+            self._double.setOperators(A, P)
+            self._double.solve(b, x)
+            reason = self._double.getConvergedReason()
+            its += self._double.getIterationNumber()
+        ksp.setIterationNumber(its)
+        ksp.setConvergedReason(reason)
+
+    def destroy(self, ksp: PETSc.KSP) -> None:
+        """Destroy the inner solvers and their factors."""
+        for inner in (self._single, self._double):
+            if inner is not None:
+                inner.destroy()
+        self._single = self._double = None
+
+    def counts(self) -> dict[str, int | bool]:
+        """Solves, refinement iterations and double-precision fallbacks so far."""
+        return {"linear_solves": self.solves, "refinement_iterations": self.refinements,
+                "double_fallbacks": self.fallbacks, "double_only": self.double_only}
+
+
+_KSP_REASONS = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items()
+                if isinstance(v, int)}
+
+
+def refined_lu(ksp: PETSc.KSP) -> RefinedLU | None:
+    """The :class:`RefinedLU` context of a Newton solver's KSP, if it has one."""
+    if ksp.getType() != "python":
+        return None
+    ctx = ksp.getPythonContext()
+    return ctx if isinstance(ctx, RefinedLU) else None

@@ -26,6 +26,13 @@ BLR_FROM_UNKNOWNS = 50_000
 # 1.6 times faster
 DROP_ZEROS_BELOW = 20_000
 
+# ``lu_precision="auto"`` factorises in single precision from this many unknowns on.
+# benchmarks/lu_precision.py (docs/performance.md): 1.10-1.11 times as fast on the 20,20,4
+# hemisphere (6,615 unknowns), 1.26 at 9,747, 1.38 at 53,391 (serial, the same Newton
+# iterations); level at 2,028 (12,12,3), the size of the test suite's models, which keep
+# the double LU
+SINGLE_FROM_UNKNOWNS = 5_000
+
 
 @dataclass(frozen=True)
 class NewtonOptions:
@@ -43,6 +50,14 @@ class NewtonOptions:
         blr_tolerance: ``mumps_blr``: MUMPS's dropping parameter CNTL(7), the relative
             accuracy of the compressed blocks; larger is cheaper per factorisation and
             costs more GMRES iterations.
+        lu_precision: The precision MUMPS factorises in (``mumps`` and ``mumps_blr``):
+            ``"double"``, or ``"single"``, each solve then refined in double precision
+            on the true residual to 1e-10 (Richardson; FGMRES with compression), with a
+            double factorisation of the same matrix where refinement does not converge
+            in 10 iterations (:class:`~forming.solver.linear.RefinedLU`). The same Newton
+            step to the linear tolerance; the factorisation costs about 0.6 of the
+            double one (docs/performance.md). ``"auto"`` (default): single from
+            :data:`SINGLE_FROM_UNKNOWNS` unknowns on, double below.
         rtol: Residual reduction relative to the first residual of a step.
         atol: Absolute residual norm [N].
         force_rtol: Newton also stops when the residual norm is below this fraction of
@@ -97,6 +112,7 @@ class NewtonOptions:
 
     linear_solver: Literal["auto", "mumps", "mumps_blr", "gamg"] = "auto"
     blr_tolerance: float = 1e-4
+    lu_precision: Literal["auto", "double", "single"] = "auto"
     rtol: float = 1e-9
     atol: float = 1e-8
     force_rtol: float = 1e-4
@@ -120,6 +136,9 @@ class NewtonOptions:
         if not 0.0 < self.blr_tolerance < 1.0:
             raise InputError("solver.blr_tolerance", f"must be in (0, 1), got "
                              f"{self.blr_tolerance}")
+        if self.lu_precision not in ("auto", "double", "single"):
+            raise InputError("newton.lu_precision", f"must be 'auto', 'double' or 'single', "
+                             f"got {self.lu_precision!r}")
         if self.line_search not in ("basic", "bt", "l2"):
             raise InputError("solver.line_search", f"must be 'basic', 'bt' or 'l2', got "
                              f"{self.line_search!r}")
@@ -150,13 +169,16 @@ class NewtonOptions:
                              f"must be in (0, 1], got {self.spring_release!r}")
 
     def for_size(self, unknowns: int) -> NewtonOptions:
-        """These settings with ``auto`` linear solver and zeros chosen for ``unknowns``."""
+        """These settings with every ``auto`` (solver, zeros, precision) chosen for ``unknowns``."""
         chosen = self
         if self.linear_solver == "auto":
             chosen = replace(chosen, linear_solver="mumps_blr"
                              if unknowns >= BLR_FROM_UNKNOWNS else "mumps")
         if self.zeros == "auto":
             chosen = replace(chosen, zeros="drop" if unknowns < DROP_ZEROS_BELOW else "keep")
+        if self.lu_precision == "auto":
+            chosen = replace(chosen, lu_precision="single" if unknowns >= SINGLE_FROM_UNKNOWNS
+                             and chosen.linear_solver != "gamg" else "double")
         return chosen
 
     def petsc_options(self) -> dict[str, str]:
@@ -172,24 +194,39 @@ class NewtonOptions:
             # Dirichlet rows of the residual are in mm, the others in N: no divergence test
             "snes_divergence_tolerance": "-1",
         }
-        if self.linear_solver in ("auto", "mumps"):
-            # MUMPS's own scaling stays: without it (ICNTL(8) = 0) the hemisphere's
-            # factorisation was 10% faster on the same path, but core_crushing took 3042
-            # Newton iterations against 1809 (docs/performance.md)
-            opts |= {"ksp_type": "preonly", "pc_type": "lu",
-                     "pc_factor_mat_solver_type": "mumps"}
-        elif self.linear_solver == "mumps_blr":
-            # the compressed LU is approximate: GMRES on the true residual makes it exact
-            opts |= {"ksp_type": "gmres", "ksp_pc_side": "right", "ksp_rtol": "1e-10",
-                     "ksp_max_it": "200", "pc_type": "lu",
-                     "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_35": "2",
-                     "mat_mumps_cntl_7": repr(self.blr_tolerance)}
+        if self.linear_solver in ("auto", "mumps", "mumps_blr"):
+            lu = self._lu_options()
+            if self.lu_precision != "single":  # (auto not chosen: double)
+                opts |= lu
+            else:  # a single-precision LU refined in double, the double LU to fall back on
+                refine = {"ksp_type": "richardson", "ksp_norm_type": "unpreconditioned"}
+                if self.linear_solver == "mumps_blr":
+                    refine = {"ksp_type": "fgmres"}
+                opts |= {"ksp_type": "python",
+                         "ksp_python_type": "forming.solver.linear.RefinedLU"}
+                opts |= {f"single_{k}": v for k, v in (lu | refine).items()}
+                opts |= {"single_ksp_rtol": "1e-10", "single_ksp_max_it": "10",
+                         "single_pc_precision": "single"}
+                opts |= {f"double_{k}": v for k, v in lu.items()}
         else:
             # GMRES: the foam's non-associated flow makes the tangent unsymmetric
             opts |= {"ksp_type": "gmres", "pc_type": "gamg", "ksp_rtol": "1e-10",
                      "ksp_max_it": "1000", "pc_gamg_threshold": "0.01",
                      "mg_levels_ksp_type": "chebyshev", "mg_levels_pc_type": "jacobi"}
         return opts | dict(self.petsc)
+
+    def _lu_options(self) -> dict[str, str]:
+        """The KSP and PC options of the MUMPS solvers, in double precision."""
+        if self.linear_solver == "mumps_blr":
+            # the compressed LU is approximate: GMRES on the true residual makes it exact
+            return {"ksp_type": "gmres", "ksp_pc_side": "right", "ksp_rtol": "1e-10",
+                    "ksp_max_it": "200", "pc_type": "lu",
+                    "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_35": "2",
+                    "mat_mumps_cntl_7": repr(self.blr_tolerance)}
+        # MUMPS's own scaling stays: without it (ICNTL(8) = 0) the hemisphere's
+        # factorisation was 10% faster on the same path, but core_crushing took 3042
+        # Newton iterations against 1809 (docs/performance.md)
+        return {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
 
 
 @dataclass(frozen=True)
