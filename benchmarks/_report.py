@@ -69,6 +69,23 @@ def run_case_process(case: str, out: Path, ranks: int = 1, sets: tuple[str, ...]
     return summary
 
 
+def alternate(case: str, key: str, choices: tuple[str, ...], out: Path, repeats: int,
+              sets: tuple[str, ...] = (), ranks: int = 1) -> dict[str, list[dict]]:
+    """Run ``case`` with ``--set key=choice`` for each choice in turn, ``repeats`` times.
+
+    Alternating the choices lets the machine's drift fall on all of them alike. Returns
+    each choice's summaries in run order; runs go to ``out/<choice>_<k>``.
+    """
+    runs: dict[str, list[dict]] = {c: [] for c in choices}
+    for k in range(repeats):
+        for choice in choices:
+            s = run_case_process(case, out / f"{choice}_{k}", ranks,
+                                 sets=(*sets, f"{key}={choice}"))
+            runs[choice].append(s)
+            print(case, " ".join(sets), choice, f"{s['timing']['wall_s']:.1f} s", flush=True)
+    return runs
+
+
 def study_runs(case: str, vary: dict[str, tuple], out: Path, sets: tuple[str, ...] = (),
                ranks: int = 1, jobs: int = 1, metrics: tuple[str, ...] = (),
                drape: bool = False) -> list[tuple[object, dict]]:

@@ -19,7 +19,7 @@ import statistics
 import tempfile
 from pathlib import Path
 
-from _report import machine, run_case_process, update_section
+from _report import alternate, machine, update_section
 
 CHOICES = ("forms", "compiled")
 
@@ -32,14 +32,10 @@ def main() -> None:
     runs: dict[tuple[bool, str], list[dict]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for holder in (False, True):
-            for k in range(args.repeats):
-                for choice in CHOICES:
-                    out = Path(tmp) / f"{holder}_{choice}_{k}"
-                    s = run_case_process("hemisphere", out, 1, sets=(
-                        f"cells={args.cells}", f"blank_holder={holder}",
-                        f"newton.jacobian={choice}"))
-                    runs.setdefault((holder, choice), []).append(s)
-                    print(holder, choice, s["timing"]["wall_s"], flush=True)
+            got = alternate("hemisphere", "newton.jacobian", CHOICES, Path(tmp) / str(holder),
+                            args.repeats, sets=(f"cells={args.cells}",
+                                                f"blank_holder={holder}"))
+            runs |= {(holder, c): rs for c, rs in got.items()}
     lines = [
         "## The core's Jacobian: forms against compiled element matrices (issue 15)", "",
         f"Written by `python benchmarks/compiled_jacobian.py` on {machine()}: `hemisphere "

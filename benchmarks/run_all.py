@@ -9,7 +9,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 BENCHMARKS = ["core_compression.py", "kernel_speed.py", "linear_solvers.py",
-              "hemisphere_cost.py", "accuracy_vs_time.py", "scaling_study.py",
+              "lu_precision.py", "hemisphere_cost.py", "accuracy_vs_time.py", "scaling_study.py",
               "explicit_speed.py", "surface_tools.py"]
 
 if __name__ == "__main__":
