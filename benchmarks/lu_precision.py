@@ -59,7 +59,7 @@ def _row(scene: Scene, choice: str, rs: list[dict]) -> str:
     refine = "-"
     if choice == "single":
         refine = (f"{t['refinement_iterations'] / max(t['linear_solves'], 1):.1f} / "
-                  f"{t['double_fallbacks']}")
+                  f"{t['exact_fallbacks']}")
     walls = ", ".join(f"{r['timing']['wall_s'] - r['timing']['jit_s']:.1f}" for r in rs)
     unknowns = rs[-1].get("mesh", {}).get("dofs", "")
     return (f"| {scene.label} | {unknowns} | {scene.ranks} | {choice} | {walls} | "
@@ -101,7 +101,7 @@ def main() -> None:
         f"{args.repeats} runs each (the 36 x 36 x 8 sandwich one); nothing else running. "
         "Wall: the summary's wall_s less its JIT compilation [s]. Per iteration: rank "
         "means [ms]. Refinement: Richardson iterations per linear solve / solves that "
-        "fell back to the double LU.", "",
+        "fell back to the exact (double) LU.", "",
         "| scene | unknowns | ranks | LU | wall [s] (each run) | Newton iterations | "
         "steps (rejected) | per iteration: kernel / assembly / linear solve [ms] | "
         "refinement | punch force max [N] | crushed volume [mm^3] |",

@@ -77,6 +77,7 @@ from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.fracture import FracturingSolid
 from forming.materials.library import honeycomb_core
 from forming.materials.solids import ElasticSolid
+from forming.meso import WALL_NEWTON
 from forming.meso.honeycomb import (
     WALL_DENSITY,
     HoneycombCell,
@@ -99,7 +100,6 @@ from forming.scene import (
     Stabilisation,
     Tool,
 )
-from forming.solver.options import NewtonOptions
 from forming.solver.stepping import StepControl
 
 INFILL_MODULUS, INFILL_POISSON = 0.3, 0.0  # the paper's dummy infill, Table 3 [MPa]
@@ -305,7 +305,7 @@ def build(p: Params) -> Job:
     return Job(
         scene=scene,
         steps=StepControl(initial=0.02, max=p.max_step, min=1e-5),
-        newton=NewtonOptions(),
+        newton=WALL_NEWTON,
         probe=probe, metrics=metrics, plots=plots, pictures=pictures,
         response=Response(columns[0], stroke, scale, "platen force on the walls"),
     )
@@ -385,7 +385,7 @@ def _tension(p: Params, patch: HoneycombPatch) -> Job:
                             f"{p.cells[1]} cells")]
 
     return Job(scene=scene, steps=StepControl(initial=p.max_step, max=p.max_step, min=1e-5),
-               newton=NewtonOptions(), plots=plots, metrics=metrics,
+               newton=WALL_NEWTON, plots=plots, metrics=metrics,
                probe=lambda model: lattice_strains(model.body, patch, p.load),
                response=Response(total, stroke, 1.0, "pull on the walls"))
 

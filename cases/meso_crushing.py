@@ -50,6 +50,7 @@ from forming.job import Job, Response
 from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.fracture import FracturingSolid
 from forming.mesh import bounding_box
+from forming.meso import WALL_NEWTON
 from forming.meso.honeycomb import (
     WALL_DENSITY,
     HoneycombCell,
@@ -171,6 +172,7 @@ def build(p: Params) -> Job:
         steps=StepControl(initial=0.02, max=0.02, min=1e-5),
         probe=probe, metrics=metrics, pictures=pictures,
         solver="explicit",
+        newton=WALL_NEWTON,  # (with --set solver=implicit)
         explicit=ExplicitOptions(loading_time=p.stroke / RATE, target_time_step=2e-7),
         response=Response("force_punch_z_N", travel, 1.0, "punch force"),
     )

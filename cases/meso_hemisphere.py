@@ -61,6 +61,7 @@ from forming.job import Job, Response
 from forming.materials.elasticity import IsotropicElasticity
 from forming.materials.fracture import FracturingSolid
 from forming.mesh import bounding_box
+from forming.meso import WALL_NEWTON
 from forming.meso.honeycomb import WALL_DENSITY, HoneycombCell, HoneycombPatch, honeycomb_mesh
 from forming.meso.post import damaged_volume, folded_walls_picture, wall_columns
 from forming.post.metrics import force_peak_final
@@ -166,6 +167,7 @@ def build(p: Params) -> Job:
     return Job(
         scene=scene, steps=StepControl(initial=0.05, max=0.05, min=1e-5),
         probe=shape, metrics=metrics, pictures=pictures, solver="explicit",
+        newton=WALL_NEWTON,  # (with --set solver=implicit)
         explicit=ExplicitOptions(loading_time=p.stroke * p.scale
                                  * LOADING_TIME[p.blank_holder],
                                  target_time_step=p.target_time_step),

@@ -188,8 +188,13 @@ def test_auto_linear_solver_follows_the_size():
     assert auto.for_size(BLR_FROM_UNKNOWNS - 1).linear_solver == "mumps"
     assert auto.for_size(BLR_FROM_UNKNOWNS).linear_solver == "mumps_blr"
     large = auto.for_size(BLR_FROM_UNKNOWNS).petsc_options()
-    assert large["single_mat_mumps_icntl_35"] == large["double_mat_mumps_icntl_35"] == "2"
-    assert large["single_ksp_type"] == "fgmres" and large["single_pc_precision"] == "single"
+    assert large["approx_mat_mumps_icntl_35"] == "2" and "exact_mat_mumps_icntl_35" not in large
+    assert large["approx_ksp_type"] == "fgmres" and large["approx_pc_precision"] == "single"
+    blr = NewtonOptions(linear_solver="mumps_blr", lu_precision="double").petsc_options()
+    assert blr["approx_ksp_type"] == "gmres" and "approx_pc_precision" not in blr
+    single = auto.for_size(SINGLE_FROM_UNKNOWNS).petsc_options()
+    assert single["approx_pc_precision"] == "single" and single["approx_ksp_type"] == "richardson"
+    assert "exact_pc_precision" not in single and single["exact_ksp_type"] == "preonly"
     assert SINGLE_FROM_UNKNOWNS == 5_000
     assert auto.for_size(SINGLE_FROM_UNKNOWNS - 1).lu_precision == "double"
     assert auto.for_size(SINGLE_FROM_UNKNOWNS).lu_precision == "single"
@@ -309,7 +314,7 @@ def _laplacian(n: int, shift: float):
     return A
 
 
-def test_the_single_precision_lu_is_refined_or_falls_back_to_double():
+def test_the_single_precision_lu_is_refined_or_falls_back_to_the_exact_one():
     """A single-precision LU refined in double solves to 1e-10, or hands over to double.
 
     A well-conditioned matrix (the 1D Laplacian shifted by 1: condition number about 5)
@@ -320,23 +325,22 @@ def test_the_single_precision_lu_is_refined_or_falls_back_to_double():
     at double round-off (1e-13 allowed), where ten refinements of the single LU leave
     it at 6e-9 and a residual 13 times the right-hand side.
     Solved again and again, the nearly singular matrix stops the refinement for good
-    after the trial of 8 solves (every later solve goes to the double LU at once).
+    after two solves (every later solve goes to the exact LU at once).
     A failure means the refinement stops short of the tolerance, or the fallback does
     not happen and Newton would get a wrong step, or a model that refinement cannot
     solve keeps paying for it.
     """
     ctx, res, backward, reason = _refined_lu_solve(_laplacian(200, 1.0))
     assert reason > 0 and res <= 1e-10 and backward <= 1e-13, (reason, res, backward)
-    assert ctx.counts()["double_fallbacks"] == 0 and ctx.counts()["refinement_iterations"] <= 4
+    assert ctx.counts()["exact_fallbacks"] == 0 and ctx.counts()["refinement_iterations"] <= 4
     ctx, res, backward, reason = _refined_lu_solve(_laplacian(200, 1e-10))
     assert reason > 0 and backward <= 1e-13, (reason, res, backward)
-    assert ctx.counts()["double_fallbacks"] == 1, ctx.counts()
-    # a model whose every solve falls back stops trying refinement after its trial
-    trial = ctx.TRIAL
-    ctx, res, backward, reason = _refined_lu_solve(_laplacian(200, 1e-10), trial + 2)
+    assert ctx.counts()["exact_fallbacks"] == 1, ctx.counts()
+    # a model whose every solve falls back stops trying refinement after two solves
+    ctx, res, backward, reason = _refined_lu_solve(_laplacian(200, 1e-10), 4)
     assert reason > 0 and backward <= 1e-13, (reason, res, backward)
-    assert ctx.counts()["double_only"] and ctx.counts()["double_fallbacks"] == trial + 2
-    assert ctx.counts()["refinement_iterations"] == 10 * trial, ctx.counts()
+    assert ctx.counts()["exact_only"] and ctx.counts()["exact_fallbacks"] == 4
+    assert ctx.counts()["refinement_iterations"] == 2 * 10, ctx.counts()
 
 
 def test_the_lifting_left_out_where_it_is_zero_changes_no_bit(monkeypatch):

@@ -438,8 +438,9 @@ class ImplicitSolver:
         ``jacobian`` whether the body's tangent was ``compiled`` or from its ``forms``,
         ``jacobian_mallocs`` PETSc's count of allocations while entries were inserted into
         the Jacobian over the run (MatGetInfo's ``mallocs``: entries outside its pattern);
-        with a single-precision LU, ``linear_solves``, ``refinement_iterations`` and
-        ``double_fallbacks`` (:class:`~forming.solver.linear.RefinedLU`).
+        with an approximate LU (single precision or compressed), ``linear_solves``,
+        ``refinement_iterations``, ``exact_fallbacks`` and ``exact_only``
+        (:class:`~forming.solver.linear.RefinedLU`).
         """
         comm = self.model.comm
 

@@ -1,12 +1,12 @@
 """Linear solvers of the Newton iteration: MUMPS, or GAMG with rigid-body modes.
 
 ``linear_solver="mumps"`` (direct LU) needs nothing here, unless it factorises in single
-precision (``lu_precision="single"``): :class:`RefinedLU` then refines each solve in
-double and falls back to a double factorisation where that fails. ``"gamg"`` is GMRES
-with smoothed-aggregation AMG on the whole Jacobian, whose near-null space is the six
-rigid-body modes of the model: of its body, or, for several bodies (the monolithic
-matrix of a sandwich), of all bodies moving together, written in the monolithic
-layout (:func:`rigid_body_modes`).
+precision (``lu_precision="single"``) or compresses (``"mumps_blr"``): :class:`RefinedLU`
+then refines each solve in double and falls back to the exact LU where that fails.
+``"gamg"`` is GMRES with smoothed-aggregation AMG on the whole Jacobian, whose near-null
+space is the six rigid-body modes of the model: of its body, or, for several bodies
+(the monolithic matrix of a sandwich), of all bodies moving together, written in the
+monolithic layout (:func:`rigid_body_modes`).
 
 A block (field-split) preconditioner with one GAMG per body was tried for the
 sandwich and failed: block Jacobi and block Gauss-Seidel both stopped at 1000 GMRES
@@ -79,34 +79,33 @@ def configure(A: PETSc.Mat, spaces: list[fem.FunctionSpace], options: NewtonOpti
 
 
 class RefinedLU:
-    """A KSP (``ksp_type python``): an LU in single precision, refined in double.
+    """A KSP (``ksp_type python``): an approximate LU made exact, or the exact LU.
 
-    MUMPS factorises the Jacobian in single precision (half the memory traffic of the
-    double LU, and twice the numbers per vector instruction) and iterative refinement
-    in double precision makes the solve exact to the linear tolerance: Richardson
-    iterations on the true residual, ``x += LU^-1 (b - A x)``, to ``ksp_rtol`` 1e-10
-    (the inner KSP of prefix ``<prefix>single_``; with block low-rank compression
-    FGMRES, since a preconditioner applied in single precision is not the same linear
-    map twice, which GMRES assumes). Refinement converges while the Jacobian's
-    condition number times single precision's round-off (6e-8) stays well below 1; where
-    it does not converge within its iterations (a crushing core with elements near
-    inversion), the same matrix is factorised in double precision (prefix
-    ``<prefix>double_``) and that solve is the answer. Either way the Newton step is
-    the double LU's to the linear tolerance. Where more than half of the solves fell
-    back (after :attr:`TRIAL` solves), every later one is made in double at once: a
-    model whose Jacobians refinement cannot solve pays at most its trial twice. See
-    docs/theory.md, section 7.
+    The approximate factorisation is MUMPS's in single precision (half the memory
+    traffic of the double LU, twice the numbers per vector instruction), its block
+    low-rank compression (``mumps_blr``), or both; an iteration in double precision on
+    the true residual makes each solve exact to ``ksp_rtol`` 1e-10 (the inner KSP of
+    prefix ``<prefix>approx_``): Richardson, ``x += LU^-1 (b - A x)``, on the
+    single-precision LU; GMRES on the compressed one; FGMRES on both, since a
+    preconditioner applied in single precision is not the same linear map twice, which
+    GMRES assumes. Refinement converges while the Jacobian's condition number times
+    the factorisation's error stays well below 1; where it has not converged within its
+    iterations (a crushing core with elements near inversion, the thin walls of a meso
+    patch), the same matrix is factorised exactly, by MUMPS's plain LU in double
+    precision (prefix ``<prefix>exact_``), and that solve is the answer. Either way the
+    Newton step is the exact LU's to the linear tolerance. Once two solves have fallen
+    back and they are more than half of the solves so far, the approximate
+    factorisation is dropped (its memory freed) and every later solve is exact at
+    once. See docs/theory.md, section 7.
     """
 
-    TRIAL = 8
-
     def __init__(self) -> None:
-        self._single: PETSc.KSP | None = None
-        self._double: PETSc.KSP | None = None
+        self._approx: PETSc.KSP | None = None
+        self._exact: PETSc.KSP | None = None
         self.solves = 0  # linear solves
-        self.refinements = 0  # refinement iterations over them
-        self.fallbacks = 0  # solves that took the double factorisation
-        self.double_only = False  # refinement given up: double from here on
+        self.refinements = 0  # iterations on the approximate LU over them
+        self.fallbacks = 0  # solves made with the exact LU
+        self.exact_only = False  # the approximate LU given up: exact from here on
 
     def _inner(self, ksp: PETSc.KSP, suffix: str) -> PETSc.KSP:
         inner = PETSc.KSP().create(ksp.getComm())
@@ -116,51 +115,51 @@ class RefinedLU:
 
     def setUp(self, ksp: PETSc.KSP) -> None:  # noqa: N802 (petsc4py's name)
         """Create the two inner solvers (their options are read once, here)."""
-        if self._single is None:
-            self._single = self._inner(ksp, "single_")
-            self._double = self._inner(ksp, "double_")
+        if self._exact is None:
+            self._approx = self._inner(ksp, "approx_")
+            self._exact = self._inner(ksp, "exact_")
 
     def solve(self, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
-        """Refined single-precision solve; the double LU where refinement fails."""
+        """The approximate LU refined; the exact LU where refinement fails."""
         A, P = ksp.getOperators()
         self.solves += 1
         its, reason = 0, 0
-        if not self.double_only:
-            self._single.setOperators(A, P)
-            self._single.solve(b, x)
-            its = self._single.getIterationNumber()
-            reason = self._single.getConvergedReason()
+        if not self.exact_only:
+            self._approx.setOperators(A, P)
+            self._approx.solve(b, x)
+            its = self._approx.getIterationNumber()
+            reason = self._approx.getConvergedReason()
             self.refinements += its
         if reason <= 0:
             self.fallbacks += 1
             if self.fallbacks == 1:
-                log.info("linear solve: refining the single-precision LU stopped (%s after "
-                         "%d iterations); this Jacobian is factorised in double",
+                log.info("linear solve: refining the approximate LU stopped (%s after %d "
+                         "iterations); this Jacobian is factorised exactly",
                          _KSP_REASONS.get(reason, reason), its)
-            if (not self.double_only and self.solves >= self.TRIAL
-                    and 2 * self.fallbacks > self.solves):
-                self.double_only = True
-                log.warning("linear solve: %d of %d single-precision solves needed the "
-                            "double LU; the rest of the run factorises in double",
+            if not self.exact_only and self.fallbacks >= 2 and 2 * self.fallbacks > self.solves:
+                self.exact_only = True
+                self._approx.destroy()  # its factors' memory
+                log.warning("linear solve: %d of %d solves on the approximate LU needed the "
+                            "exact one; the rest of the run factorises exactly",
                             self.fallbacks, self.solves)
-            self._double.setOperators(A, P)
-            self._double.solve(b, x)
-            reason = self._double.getConvergedReason()
-            its += self._double.getIterationNumber()
+            self._exact.setOperators(A, P)
+            self._exact.solve(b, x)
+            reason = self._exact.getConvergedReason()
+            its += self._exact.getIterationNumber()
         ksp.setIterationNumber(its)
         ksp.setConvergedReason(reason)
 
     def destroy(self, ksp: PETSc.KSP) -> None:
         """Destroy the inner solvers and their factors."""
-        for inner in (self._single, self._double):
+        for inner in (self._approx, self._exact):
             if inner is not None:
                 inner.destroy()
-        self._single = self._double = None
+        self._approx = self._exact = None
 
     def counts(self) -> dict[str, int | bool]:
-        """Solves, refinement iterations and double-precision fallbacks so far."""
+        """Solves, refinement iterations and exact fallbacks so far."""
         return {"linear_solves": self.solves, "refinement_iterations": self.refinements,
-                "double_fallbacks": self.fallbacks, "double_only": self.double_only}
+                "exact_fallbacks": self.fallbacks, "exact_only": self.exact_only}
 
 
 _KSP_REASONS = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items()

@@ -44,7 +44,8 @@ class NewtonOptions:
             ``"mumps"`` (direct LU), ``"mumps_blr"`` (MUMPS with
             block low-rank compression at ``blr_tolerance``, a cheaper and approximate
             LU, as the preconditioner of right-preconditioned GMRES to ``ksp_rtol``
-            1e-10; for large models: docs/performance.md) or ``"gamg"`` (GMRES +
+            1e-10, with the exact LU where 30 iterations do not reach it; for large
+            models: docs/performance.md) or ``"gamg"`` (GMRES +
             smoothed aggregation AMG with the model's rigid-body modes as near-null
             space, one body or several: :mod:`.linear`).
         blr_tolerance: ``mumps_blr``: MUMPS's dropping parameter CNTL(7), the relative
@@ -52,9 +53,10 @@ class NewtonOptions:
             costs more GMRES iterations.
         lu_precision: The precision MUMPS factorises in (``mumps`` and ``mumps_blr``):
             ``"double"``, or ``"single"``, each solve then refined in double precision
-            on the true residual to 1e-10 (Richardson; FGMRES with compression), with a
-            double factorisation of the same matrix where refinement does not converge
-            in 10 iterations (:class:`~forming.solver.linear.RefinedLU`). The same Newton
+            on the true residual to 1e-10 (Richardson; FGMRES with compression), with
+            the exact LU (plain, double) of the same matrix where refinement does not
+            converge (in 10 iterations; 30 with compression)
+            (:class:`~forming.solver.linear.RefinedLU`). The same Newton
             step to the linear tolerance; the factorisation costs about 0.6 of the
             double one (docs/performance.md). ``"auto"`` (default): single from
             :data:`SINGLE_FROM_UNKNOWNS` unknowns on, double below.
@@ -195,19 +197,7 @@ class NewtonOptions:
             "snes_divergence_tolerance": "-1",
         }
         if self.linear_solver in ("auto", "mumps", "mumps_blr"):
-            lu = self._lu_options()
-            if self.lu_precision != "single":  # (auto not chosen: double)
-                opts |= lu
-            else:  # a single-precision LU refined in double, the double LU to fall back on
-                refine = {"ksp_type": "richardson", "ksp_norm_type": "unpreconditioned"}
-                if self.linear_solver == "mumps_blr":
-                    refine = {"ksp_type": "fgmres"}
-                opts |= {"ksp_type": "python",
-                         "ksp_python_type": "forming.solver.linear.RefinedLU"}
-                opts |= {f"single_{k}": v for k, v in (lu | refine).items()}
-                opts |= {"single_ksp_rtol": "1e-10", "single_ksp_max_it": "10",
-                         "single_pc_precision": "single"}
-                opts |= {f"double_{k}": v for k, v in lu.items()}
+            opts |= self._lu_options()
         else:
             # GMRES: the foam's non-associated flow makes the tangent unsymmetric
             opts |= {"ksp_type": "gmres", "pc_type": "gamg", "ksp_rtol": "1e-10",
@@ -216,17 +206,32 @@ class NewtonOptions:
         return opts | dict(self.petsc)
 
     def _lu_options(self) -> dict[str, str]:
-        """The KSP and PC options of the MUMPS solvers, in double precision."""
-        if self.linear_solver == "mumps_blr":
-            # the compressed LU is approximate: GMRES on the true residual makes it exact
-            return {"ksp_type": "gmres", "ksp_pc_side": "right", "ksp_rtol": "1e-10",
-                    "ksp_max_it": "200", "pc_type": "lu",
-                    "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_35": "2",
-                    "mat_mumps_cntl_7": repr(self.blr_tolerance)}
+        """The KSP and PC options of the MUMPS solvers (``auto`` not chosen: plain, double).
+
+        The plain LU in double precision is exact: one solve. An approximate one
+        (single precision, compressed, or both) is refined on the true residual to
+        1e-10, with the exact LU to fall back on (:class:`~forming.solver.linear.RefinedLU`).
+        """
         # MUMPS's own scaling stays: without it (ICNTL(8) = 0) the hemisphere's
         # factorisation was 10% faster on the same path, but core_crushing took 3042
         # Newton iterations against 1809 (docs/performance.md)
-        return {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
+        exact = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
+        single, blr = self.lu_precision == "single", self.linear_solver == "mumps_blr"
+        if not (single or blr):
+            return exact
+        approx = exact | {"ksp_rtol": "1e-10", "ksp_max_it": "30"}
+        if blr:
+            approx |= {"mat_mumps_icntl_35": "2", "mat_mumps_cntl_7": repr(self.blr_tolerance)}
+        if single:  # (a preconditioner in single precision is not one linear map: FGMRES)
+            approx |= {"pc_precision": "single"}
+            approx |= {"ksp_type": "fgmres"} if blr else {
+                "ksp_type": "richardson", "ksp_norm_type": "unpreconditioned",
+                "ksp_max_it": "10"}
+        else:  # the compressed LU in double precision: GMRES on the true residual
+            approx |= {"ksp_type": "gmres", "ksp_pc_side": "right"}
+        return {"ksp_type": "python", "ksp_python_type": "forming.solver.linear.RefinedLU",
+                **{f"approx_{k}": v for k, v in approx.items()},
+                **{f"exact_{k}": v for k, v in exact.items()}}
 
 
 @dataclass(frozen=True)
