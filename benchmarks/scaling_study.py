@@ -44,6 +44,10 @@ def main() -> None:
     parser.add_argument("--meshes", nargs="+", default=list(MESHES))
     parser.add_argument("--ranks", nargs="+", type=int, default=[1, 2])
     parser.add_argument("--solvers", nargs="+", default=["mumps", "gamg"])
+    parser.add_argument("--lu-precision", default="double",
+                        choices=("auto", "double", "single"),
+                        help="MUMPS's factorisation (newton.lu_precision; the tables of "
+                        "docs/performance.md were measured in double)")
     parser.add_argument("--stroke", type=float, default=10.0)
     parser.add_argument("--max-step", type=float, default=0.05,
                         help="largest load step (fraction of the stroke)")
@@ -91,7 +95,8 @@ def run_all(args) -> list[dict]:
                         sets=("skins=true", "skin_contact=small", "blank_holder=true",
                               f"cells={cells}",
                               f"stroke={args.stroke}", f"max_step={args.max_step}",
-                              f"newton.linear_solver={solver}"))
+                              f"newton.linear_solver={solver}",
+                              f"newton.lu_precision={args.lu_precision}"))
                     t = s["timing"]
                     rows.append({
                         "cells": cells, "solver": solver, "ranks": ranks,
@@ -112,7 +117,9 @@ def write_section(args, rows: list[dict]) -> None:
     lines = [
         f"Measured with `python benchmarks/scaling_study.py "
         f"--meshes {' '.join(args.meshes)} --solvers {' '.join(args.solvers)} --stroke "
-        f"{args.stroke:g} --max-step {args.max_step:g}` on {machine()}: `hemisphere --set "
+        f"{args.stroke:g} --max-step {args.max_step:g}"
+        f"{'' if args.lu_precision == 'double' else ' --lu-precision ' + args.lu_precision}"
+        f"` on {machine()}: `hemisphere --set "
         f"skins=true --set "
         f"blank_holder=true`, the first {args.stroke:g} mm of the stroke. Per-iteration "
         f"times are rank means [ms].", "",
