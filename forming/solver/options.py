@@ -57,9 +57,11 @@ class NewtonOptions:
             the exact LU (plain, double) of the same matrix where refinement does not
             converge (in 10 iterations; 30 with compression)
             (:class:`~forming.solver.linear.RefinedLU`). The same Newton
-            step to the linear tolerance; the factorisation costs about 0.6 of the
-            double one (docs/performance.md). ``"auto"`` (default): single from
-            :data:`SINGLE_FROM_UNKNOWNS` unknowns on, double below.
+            step to the linear tolerance; the factorisation and refinement cost 0.53-0.77
+            of the double LU's time (docs/performance.md). ``"auto"`` (default): single
+            from :data:`SINGLE_FROM_UNKNOWNS` unknowns on, double below. PETSc options of
+            an approximate LU's solvers take the prefixes ``<prefix>approx_`` and
+            ``<prefix>exact_`` (``-forming_approx_mat_mumps_icntl_8 0``).
         rtol: Residual reduction relative to the first residual of a step.
         atol: Absolute residual norm [N].
         force_rtol: Newton also stops when the residual norm is below this fraction of
