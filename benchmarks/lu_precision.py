@@ -100,8 +100,9 @@ def main() -> None:
         "`--set newton.lu_precision=double` and `=single`, alternated, "
         f"{args.repeats} runs each (the 36 x 36 x 8 sandwich one); nothing else running. "
         "Wall: the summary's wall_s less its JIT compilation [s]. Per iteration: rank "
-        "means [ms]. Refinement: Richardson iterations per linear solve / solves that "
-        "fell back to the exact (double) LU.", "",
+        "means [ms]. Refinement: refinement iterations per linear solve (Richardson; FGMRES "
+        "where the LU is compressed too) / solves that fell back to the exact (double) "
+        "LU.", "",
         "| scene | unknowns | ranks | LU | wall [s] (each run) | Newton iterations | "
         "steps (rejected) | per iteration: kernel / assembly / linear solve [ms] | "
         "refinement | punch force max [N] | crushed volume [mm^3] |",

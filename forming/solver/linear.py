@@ -139,6 +139,7 @@ class RefinedLU:
             if not self.exact_only and self.fallbacks >= 2 and 2 * self.fallbacks > self.solves:
                 self.exact_only = True
                 self._approx.destroy()  # its factors' memory
+                self._approx = None
                 log.warning("linear solve: %d of %d solves on the approximate LU needed the "
                             "exact one; the rest of the run factorises exactly",
                             self.fallbacks, self.solves)
