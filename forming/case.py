@@ -312,7 +312,8 @@ def apply_petsc_args(extra: list[str]) -> None:
     """Pass ``-option value`` pairs left on the command line to PETSc.
 
     PETSc's options take one dash; a word with two dashes that the parser did not know is
-    a mistyped option of ours (``--set-py``), refused before anything runs.
+    a mistyped option of ours (``--set-py``), refused before anything runs. ``-log_view``
+    starts PETSc's event log, whose summary PETSc prints when the run ends.
     """
     for key in extra:
         if key.startswith("--"):
@@ -334,6 +335,10 @@ def apply_petsc_args(extra: list[str]) -> None:
         else:
             opts[key.lstrip("-")] = None
             i += 1
+    if any(k.lstrip("-").split(":")[0] == "log_view" for k in extra):
+        # PETSc reads -log_view only when it starts logging, which petsc4py did before
+        # these options existed: begin now, and PETSc prints its summary at the end
+        PETSc.Log.begin()
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:

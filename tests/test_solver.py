@@ -195,6 +195,7 @@ def test_auto_linear_solver_follows_the_size():
     single = auto.for_size(SINGLE_FROM_UNKNOWNS).petsc_options()
     assert single["approx_pc_precision"] == "single" and single["approx_ksp_type"] == "richardson"
     assert "exact_pc_precision" not in single and single["exact_ksp_type"] == "preonly"
+    assert single["pc_type"] == "none"  # the outer KSP's own PC is never applied
     assert SINGLE_FROM_UNKNOWNS == 5_000
     assert auto.for_size(SINGLE_FROM_UNKNOWNS - 1).lu_precision == "double"
     assert auto.for_size(SINGLE_FROM_UNKNOWNS).lu_precision == "single"

@@ -231,7 +231,10 @@ class NewtonOptions:
                 "ksp_max_it": "10"}
         else:  # the compressed LU in double precision: GMRES on the true residual
             approx |= {"ksp_type": "gmres", "ksp_pc_side": "right"}
+        # the outer KSP only calls the inner ones: its own PC (ILU by default, set up
+        # at every Newton iteration) would be work thrown away
         return {"ksp_type": "python", "ksp_python_type": "forming.solver.linear.RefinedLU",
+                "pc_type": "none",
                 **{f"approx_{k}": v for k, v in approx.items()},
                 **{f"exact_{k}": v for k, v in exact.items()}}
 
