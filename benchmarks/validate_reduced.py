@@ -120,7 +120,10 @@ def _report(rows: list[dict], beams: list, ranks: int) -> None:
         "over the run at the body's own fully integrated points (the history's "
         "`min_det_F`). Smallest corner det: the determinant of the elements' maps at "
         "their corners over the reference, smallest over the run (`min_corner_det`; at or "
-        "below 0 an element has folded; - for a run made before it was recorded).",
+        "below 0 an element has folded; - for a run made before it was recorded). The "
+        "reduced and thickness runs hold their corners above 0.1 of the reference with "
+        "the distortion control (`explicit.distortion_control`, 0.1 by default since "
+        "2026-12-02; docs/theory.md, section 12).",
         "",
         "| scene | integration | status | force RMS diff | peak diff | shape RMS | hourglass "
         "/ internal | crushed volume imp. / exp. [mm^3] | smallest det F | smallest corner det "

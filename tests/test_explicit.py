@@ -240,6 +240,19 @@ def test_bound_every_is_a_share_of_the_load():
     assert ExplicitOptions(bound_every=0.0).bound_every == 0.0
 
 
+def test_distortion_control_is_a_corner_ratio():
+    """``explicit.distortion_control`` is a corner determinant ratio in [0, 1): a negative
+    one, 1 or more (a penalty on undeformed elements) or NaN is refused with the field
+    named; 0 switches it off."""
+    from forming.errors import InputError
+    from forming.solver.options import ExplicitOptions
+
+    for bad in (-0.1, 1.0, 2.0, float("nan")):
+        with pytest.raises(InputError, match="explicit.distortion_control"):
+            ExplicitOptions(distortion_control=bad)
+    assert ExplicitOptions(distortion_control=0.0).distortion_control == 0.0
+
+
 def test_friction_filter_is_a_time():
     """``explicit.friction_filter`` is a time constant in seconds: a negative or
     non-finite one is refused with the field named (0 switches the filter off), and so

@@ -318,6 +318,49 @@ def test_an_element_folded_in_its_hourglass_mode_is_flagged(integration):
     assert smallest_corner_det([body.explicit_internal_force("full", 0.1, DENSITY)]) == 1.0
 
 
+@pytest.mark.parametrize("integration", ["reduced", "thickness"])
+def test_the_distortion_control_resists_a_fold_and_nothing_else(integration):
+    """The distortion control: no force above its ratio, a restoring one below it.
+
+    The cube of the test above, folded in its hourglass mode (``u_z = a xyz / h^2``,
+    corners at ``1 - a/4``): with ``distortion_control`` 0.1 the loop's forces are the
+    same bits as without it at ``a = 2`` (corners at 0.5) and for a rigid turn; at
+    ``a = 6`` (corners at -0.5) the extra forces are the gradient of the stored energy
+    (Taylor remainder of second order) and do positive work along the fold (they
+    resist it), and the energy counts with the hourglass energy. A failure means the
+    penalty acts on sound elements, pushes a fold further, or its forces and energy
+    disagree (the explicit run's energy balance would not close).
+    """
+    h = 10.0
+    body = _body(honeycomb_core("isotropic", plastic=False), size=(h, h, h), cells=(1, 1, 1))
+    plain = body.explicit_internal_force(integration, 0.1, DENSITY)
+    held = body.explicit_internal_force(integration, 0.1, DENSITY, distortion=0.1)
+    X = body.V.tabulate_dof_coordinates() - 0.5 * h
+    t = np.radians(50.0)
+    turn = np.array([[np.cos(t), -np.sin(t), 0.0], [np.sin(t), np.cos(t), 0.0], [0, 0, 1.0]])
+
+    def fold(a):
+        u = np.zeros_like(X)
+        u[:, 2] = a * X[:, 0] * X[:, 1] * X[:, 2] / h**2
+        return u.ravel()
+
+    for u in ((X @ turn.T - X).ravel(), fold(2.0)):
+        assert np.array_equal(_forces(body, held, u), _forces(body, plain, u))
+        assert held.distortion_energy == 0.0
+    u = fold(6.0)
+    extra = _forces(body, held, u) - _forces(body, plain, u)
+    energy = held.distortion_energy
+    assert energy > 0.0
+    assert held.hourglass_energy == pytest.approx(plain.hourglass_energy + energy, rel=1e-12)
+    assert float(extra @ (fold(6.0 + 1e-3) - u)) > 0.0  # work against a deeper fold
+    v = np.random.default_rng(4).standard_normal(u.size)
+    remainders = []
+    for step in (1e-3, 5e-4):
+        _forces(body, held, u + step * v)
+        remainders.append(abs(held.distortion_energy - energy - step * float(extra @ v)))
+    assert remainders[0] / remainders[1] == pytest.approx(4.0, rel=0.05)
+
+
 def loop_shape(points):
     """P1 hexahedron shape functions at ``points`` (n_q, 8)."""
     import basix

@@ -113,7 +113,7 @@ class DeformableBody(Protocol):
         """Stiffness-proportional damping forces at velocities ``v``, or None (explicit runs)."""
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
-                                plastic_floor: float = 0.3):
+                                plastic_floor: float = 0.3, distortion: float = 0.0):
         """Element loops for the explicit solver, or None to use the form.
 
         The loops are a :class:`~forming.bodies.hexforce.HexInternalForce`.
@@ -199,9 +199,9 @@ class BodyBase:
         del v, beta, w
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
-                                plastic_floor: float = 0.3):
+                                plastic_floor: float = 0.3, distortion: float = 0.0):
         """None: the explicit solver assembles this body's internal forces from its form."""
-        del integration, hourglass, density, plastic_floor
+        del integration, hourglass, density, plastic_floor, distortion
 
     def compiled_tangent(self):
         """None: the implicit solver assembles this body's Jacobian from its form."""

@@ -49,6 +49,7 @@ from dolfinx import la  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat  # noqa: F401
+from forming.bodies.corners import DistortionControl
 from forming.bodies.hexkernels import nodal_forces, right_cauchy_green, tangent_ratio
 from forming.errors import InputError, KernelFailure
 from forming.materials.solids import point_stress
@@ -227,6 +228,14 @@ def loop_timing(loops: list[HexInternalForce], comm) -> dict[str, float]:
     return {"element_loops_s": most, "element_loops_imbalance": most / mean if mean else 1.0}
 
 
+def distortion_energy(loops: list[HexInternalForce], comm) -> float:
+    """The distortion control's energy of the loops' elements over all ranks [N mm].
+
+    Collective.
+    """
+    return comm.allreduce(sum(loop.distortion_energy for loop in loops), op=MPI.SUM)
+
+
 def smallest_corner_det(loops: list[HexInternalForce]) -> float:
     """Smallest corner determinant ratio of the hourglass-controlled loops' bodies so far.
 
@@ -248,6 +257,9 @@ class HexInternalForce:
         hourglass: Hourglass coefficient ``kappa`` of the reduced elements (>= 0).
         density: Mass density [t/mm^3] (the element frequency bound).
         plastic_floor: Smallest tangent ratio of a plastically flowing element.
+        distortion: Corner determinant ratio below which a reduced or thickness element
+            is held from folding by the distortion control
+            (:class:`~forming.bodies.corners.DistortionControl`); 0: none.
 
     Raises:
         InputError: Not a hexahedral body of degree 1 or 2, reduced integration of a
@@ -255,7 +267,7 @@ class HexInternalForce:
     """
 
     def __init__(self, body, integration: str, hourglass: float, density: float,
-                 plastic_floor: float = 0.3):
+                 plastic_floor: float = 0.3, distortion: float = 0.0):
         degree = body.spec.degree
         if body.mesh.topology.cell_name() != "hexahedron" or degree not in (1, 2):
             raise InputError(f"body.{body.name}",
@@ -272,6 +284,9 @@ class HexInternalForce:
                              f"a fracturing body ({body.name!r}): use 'full'")
         if not hourglass >= 0.0:
             raise InputError("explicit.hourglass", f"must be >= 0, got {hourglass!r}")
+        if not 0.0 <= distortion < 1.0:
+            raise InputError("explicit.distortion_control",
+                             f"must lie in [0, 1), got {distortion!r}")
         self.body = body
         self.integration = integration
         self.reduced = integration != "full"  # hourglass-controlled
@@ -339,6 +354,9 @@ class HexInternalForce:
         self._curve = (k.xs, k.ys, k.ds) if k.plastic else None
         self.modulus = modulus
         self.plastic_floor = plastic_floor
+        self.distortion = (DistortionControl(self.nodes, x, weights.sum(axis=1), modulus,
+                                             modulus / density, distortion)
+                           if self.reduced and distortion > 0.0 else None)
         self.omega2 = 0.0  # the largest element frequency bound of the rank [1/s^2]
         self.seconds = 0.0  # wall time of the rank's element work (no scatters) [s]
         self.pull()
@@ -395,6 +413,8 @@ class HexInternalForce:
                                    self.stress,
                                    self.gamma, self.k_hg, self.phi, self.hg,
                                    self.hg_energy[1], self.wave2, out)
+        if self.distortion is not None:
+            self.omega2 = max(self.omega2, self.distortion.add_forces(u, out))
         return ""
 
     @property
@@ -404,8 +424,18 @@ class HexInternalForce:
 
     @property
     def hourglass_energy(self) -> float:
-        """Hourglass energy of the rank's elements at the last evaluation [N mm]."""
-        return float(self.hg_energy.sum())
+        """Hourglass energy of the rank's elements at the last evaluation [N mm].
+
+        With the distortion control, its stored energy too (both artificial strain
+        energy, Abaqus' ALLAE).
+        """
+        stored = self.distortion.stored if self.distortion is not None else 0.0
+        return float(self.hg_energy.sum()) + stored
+
+    @property
+    def distortion_energy(self) -> float:
+        """The distortion control's energy of the rank's elements [N mm] (0 without)."""
+        return self.distortion.stored if self.distortion is not None else 0.0
 
     def commit(self) -> None:
         """Accept the trial plastic and hourglass state."""

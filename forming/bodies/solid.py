@@ -240,7 +240,8 @@ class SolidBody(BodyBase):
         return (self.domain.layout(self.V), plastic, self.domain.layout(self.QS))
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
-                                plastic_floor: float = 0.3) -> HexInternalForce | None:
+                                plastic_floor: float = 0.3,
+                                distortion: float = 0.0) -> HexInternalForce | None:
         """Element loops for the explicit solver on hexahedra; None: use the forms.
 
         ``integration`` applies to P1 hexahedra; P2 ones (the meso-scale walls) are
@@ -250,7 +251,8 @@ class SolidBody(BodyBase):
             return None
         if self.spec.degree == 2 or (integration == "thickness" and self.damaging):
             integration = "full"
-        return HexInternalForce(self, integration, hourglass, density, plastic_floor)
+        return HexInternalForce(self, integration, hourglass, density, plastic_floor,
+                                distortion)
 
     def compiled_tangent(self) -> HexTangent | None:
         """Compiled element matrices on P1 hexahedra with 8 points; None: the form."""

@@ -32,7 +32,7 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat, signals  # noqa: F401
-from forming.bodies.hexforce import loop_timing, smallest_corner_det
+from forming.bodies.hexforce import distortion_energy, loop_timing, smallest_corner_det
 from forming.contact.selfcontact import SelfContactTerm
 from forming.errors import InputError, KernelFailure
 from forming.model import Model
@@ -87,8 +87,8 @@ class ExplicitSolver:
         emaps = model.entity_maps or None
         # internal forces: element loops where the body has them, else its form
         self._loops = {st.name: st.body.explicit_internal_force(
-            opts.integration, opts.hourglass, body_density(st.body), opts.hourglass_plastic)
-            for st in self.states}
+            opts.integration, opts.hourglass, body_density(st.body), opts.hourglass_plastic,
+            opts.distortion_control) for st in self.states}
         self._loop_list = [loop for loop in self._loops.values() if loop is not None]
         self._internal = {n: fem.form(b.residual(tests[n]), entity_maps=emaps)
                           for n, b in model.bodies.items() if self._loops[n] is None}
@@ -279,10 +279,6 @@ class ExplicitSolver:
             ke += 0.5 * float(st.m[:n] @ v**2)
         return ke
 
-    def _hourglass(self) -> float:
-        """Hourglass energy of this rank's elements [N mm]."""
-        return sum(loop.hourglass_energy for loop in self._loop_list)
-
     def _push(self) -> None:
         """Hand the element loops' and nodal contacts' history to the model's objects."""
         for loop in self._loop_list:
@@ -362,8 +358,9 @@ class ExplicitSolver:
         if ok:
             self._push()
             self._omega2_now = self._omega2()  # the stiffest element at the interval's end
-            reason = self.ledger.close_interval(self.comm, self._kinetic(),
-                                                self._hourglass(), self._s_end)
+            artificial = sum(loop.hourglass_energy for loop in self._loop_list)
+            reason = self.ledger.close_interval(self.comm, self._kinetic(), artificial,
+                                                self._s_end)
             for v in self._impulse.values():
                 self.comm.Allreduce(MPI.IN_PLACE, v, op=MPI.SUM)
         elif not reason:
@@ -458,6 +455,7 @@ class ExplicitSolver:
         return {"kinetic_to_internal_max": led.ke_ie_max,
                 "quasi_static": led.ke_ie_max <= self.options.quasi_static_limit,
                 "hourglass_energy_fraction": led.hg_ie_max,
+                "distortion_energy_Nmm": distortion_energy(self._loop_list, self.comm),
                 "mass_added_fraction": self.mass_added_fraction,
                 "energy_balance_error_rel": led.balance_error(),
                 } | ({"self_contact_penetration_max_mm": max(sc.deepest for sc in selves)}

@@ -297,6 +297,11 @@ class ExplicitOptions:
             ratio is floored here): lower follows crushing more closely, higher keeps
             crushing elements from inverting (docs/theory.md section 12).
         hourglass_limit: Hourglass over internal energy above which a run is flagged.
+        distortion_control: Corner determinant ratio (current over reference) below
+            which a reduced or thickness element is held from folding by a penalty, as
+            Abaqus/Explicit's distortion control (docs/theory.md section 12); its energy
+            counts with the hourglass energy. 0.1 by default; 0: off. Fully integrated
+            elements have none.
     """
 
     loading_time: float = 0.05
@@ -315,6 +320,7 @@ class ExplicitOptions:
     hourglass: float = 0.1
     hourglass_plastic: float = 0.3
     hourglass_limit: float = 0.05
+    distortion_control: float = 0.1
 
     def __post_init__(self) -> None:
         if self.integration not in ("reduced", "full", "thickness"):
@@ -328,6 +334,9 @@ class ExplicitOptions:
         if not self.hourglass_limit > 0:
             raise InputError("explicit.hourglass_limit",
                              f"must be > 0, got {self.hourglass_limit!r}")
+        if not 0.0 <= self.distortion_control < 1.0:
+            raise InputError("explicit.distortion_control",
+                             f"must lie in [0, 1), got {self.distortion_control!r}")
         if not (math.isfinite(self.loading_time) and self.loading_time > 0):
             raise InputError("explicit.loading_time", f"must be > 0 s, got {self.loading_time!r}")
         if self.amplitude not in ("smooth", "linear"):
