@@ -66,9 +66,10 @@ class NewtonOptions:
         atol: Absolute residual norm [N].
         force_rtol: Newton also stops when the residual norm is below this fraction of
             the force scale of the last converged step (largest reaction or tool force).
-            1e-4 accepts a force imbalance 50 times smaller than Abaqus/Standard's default
-            (5e-3 of the average force); it ends the slow tail that stick-slip switching
-            of unloaded contact nodes causes. 0 switches it off.
+            It ends the slow tail that stick-slip switching of unloaded contact nodes
+            causes. (Abaqus/Standard's default compares the largest nodal residual with
+            5e-3 of the time-averaged nodal force, which is far below a tool's total
+            force: the two numbers are not comparable as they stand.) 0 switches it off.
         max_it: Newton iterations before a step counts as failed.
         line_search: ``"basic"`` (full Newton step), ``"bt"`` (backtracking) or ``"l2"``
             (PETSc's secant minimisation of the residual norm along the Newton step).
