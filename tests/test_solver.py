@@ -344,6 +344,61 @@ def test_the_single_precision_lu_is_refined_or_falls_back_to_the_exact_one():
     assert ctx.counts()["refinement_iterations"] == 2 * 10, ctx.counts()
 
 
+def test_a_fallback_holds_one_factorisation_at_a_time():
+    """After an exact fallback the approximate LU is the first try again, in single.
+
+    A fallback frees the approximate factors before the exact LU is made, and the exact
+    factors once its solve is done (a Newton iteration's next Jacobian is factorised
+    anew), so the two are never held at once (the memory of both: about 1.5 times the
+    double LU's). One KSP solves the nearly singular matrix (a fallback), then the
+    well-conditioned one: that solve must again be the single-precision LU refined
+    (at least 2 Richardson iterations: the double LU would take 1) with no new fallback,
+    to the tolerance; and the nearly singular one again falls back and is solved at
+    double round-off. A failure means a fallback left the approximate solver without
+    its settings (a double LU, or no LU), or freed a factorisation still in use.
+    """
+    from petsc4py import PETSc
+
+    from forming.solver.linear import refined_lu
+    from forming.solver.options import NewtonOptions
+
+    prefix = "refined_reset_"
+    opts = PETSc.Options()
+    keys = NewtonOptions(linear_solver="mumps", lu_precision="single").petsc_options()
+    for k, v in keys.items():
+        if not k.startswith("snes_"):
+            opts[prefix + k] = v
+    hard, easy = _laplacian(200, 1e-10), _laplacian(200, 1.0)
+    ksp = PETSc.KSP().create(hard.getComm())
+    ksp.setOptionsPrefix(prefix)
+    ksp.setOperators(hard)
+    ksp.setFromOptions()
+    b = hard.createVecLeft()
+    b.set(1.0)
+    x, r = b.duplicate(), b.duplicate()
+    ksp.solve(b, x)
+    ctx = refined_lu(ksp)
+    assert ctx.counts()["exact_fallbacks"] == 1
+    before = ctx.counts()["refinement_iterations"]
+    ksp.setOperators(easy)
+    ksp.solve(b, x)
+    easy.mult(x, r)
+    r.axpy(-1.0, b)
+    assert ksp.getConvergedReason() > 0 and r.norm() <= 1e-10 * b.norm()
+    counts = ctx.counts()
+    assert counts["exact_fallbacks"] == 1 and not counts["exact_only"], counts
+    assert 2 <= counts["refinement_iterations"] - before <= 4, counts
+    ksp.setOperators(hard)
+    ksp.solve(b, x)
+    hard.mult(x, r)
+    r.axpy(-1.0, b)
+    assert ctx.counts()["exact_fallbacks"] == 2
+    backward = r.norm(PETSc.NormType.INFINITY) / (
+        hard.norm(PETSc.NormType.INFINITY) * x.norm(PETSc.NormType.INFINITY) + 1.0)
+    assert ksp.getConvergedReason() > 0 and backward <= 1e-13, backward
+    ksp.destroy()
+
+
 def test_the_lifting_left_out_where_it_is_zero_changes_no_bit(monkeypatch):
     """The implicit residual leaves out the Dirichlet lifting ``-J (g - u)`` when every
     prescribed dof holds its value (it costs a Jacobian assembly over the cells with such

@@ -143,10 +143,17 @@ class RefinedLU:
                 log.warning("linear solve: %d of %d solves on the approximate LU needed the "
                             "exact one; the rest of the run factorises exactly",
                             self.fallbacks, self.solves)
+            elif not self.exact_only:
+                # the approximate factors are of this matrix alone (the next Jacobian is
+                # factorised anew): freed before the exact ones are made, so that the two
+                # are never held at once
+                self._approx.reset()
             self._exact.setOperators(A, P)
             self._exact.solve(b, x)
             reason = self._exact.getConvergedReason()
             its += self._exact.getIterationNumber()
+            if not self.exact_only:
+                self._exact.reset()  # the next Jacobian tries the approximate LU first
         ksp.setIterationNumber(its)
         ksp.setConvergedReason(reason)
 
