@@ -262,6 +262,52 @@ def test_iterative_solvers_give_the_direct_solvers_answer(case, solver, tmp_path
     assert not why[-1], why
 
 
+class _SinglePrecisionKSP:
+    """A Newton solver's single-precision KSP on ``A`` (its options under a test prefix).
+
+    A context manager: the options are removed and the KSP destroyed on exit.
+    """
+
+    def __init__(self, A, prefix: str = "refined_test_"):
+        from petsc4py import PETSc
+
+        from forming.solver.options import NewtonOptions
+
+        keys = NewtonOptions(linear_solver="mumps", lu_precision="single").petsc_options()
+        self._keys = [prefix + k for k in keys if not k.startswith("snes_")]
+        self._opts = PETSc.Options()
+        for k, v in keys.items():
+            if not k.startswith("snes_"):
+                self._opts[prefix + k] = v
+        self.ksp = PETSc.KSP().create(A.getComm())
+        self.ksp.setOptionsPrefix(prefix)
+        self.ksp.setOperators(A)
+        self.ksp.setFromOptions()
+
+    def __enter__(self):
+        return self.ksp
+
+    def __exit__(self, *exc) -> None:
+        for k in self._keys:
+            self._opts.delValue(k)
+        self.ksp.destroy()
+
+
+def _errors(A, x, b) -> tuple[float, float]:
+    """Relative residual of ``A x = b`` and its normwise backward error.
+
+    The backward error is what a stable LU keeps at round-off, whatever the condition
+    number.
+    """
+    from petsc4py import PETSc
+
+    r = b.duplicate()
+    A.mult(x, r)
+    r.axpy(-1.0, b)
+    inf = PETSc.NormType.INFINITY
+    return r.norm() / b.norm(), r.norm(inf) / (A.norm(inf) * x.norm(inf) + b.norm(inf))
+
+
 def _refined_lu_solve(A, times: int = 1):
     """Solve ``A x = 1`` with a Newton solver's single-precision KSP, ``times`` times.
 
@@ -269,37 +315,16 @@ def _refined_lu_solve(A, times: int = 1):
         The KSP's :class:`RefinedLU`, the relative residual, the normwise backward error
         and the KSP's reason.
     """
-    from petsc4py import PETSc
-
     from forming.solver.linear import refined_lu
-    from forming.solver.options import NewtonOptions
 
-    prefix = "refined_test_"
-    opts = PETSc.Options()
-    keys = NewtonOptions(linear_solver="mumps", lu_precision="single").petsc_options()
-    keys = {k: v for k, v in keys.items() if not k.startswith("snes_")}
-    for k, v in keys.items():
-        opts[prefix + k] = v
-    ksp = PETSc.KSP().create(A.getComm())
-    ksp.setOptionsPrefix(prefix)
-    ksp.setOperators(A)
-    ksp.setFromOptions()
-    b = A.createVecLeft()
-    b.set(1.0)
-    x = b.duplicate()
-    for _ in range(times):
-        ksp.solve(b, x)
-    r = b.duplicate()
-    A.mult(x, r)
-    r.axpy(-1.0, b)
-    ctx = refined_lu(ksp)
-    for k in keys:
-        opts.delValue(prefix + k)
-    inf = PETSc.NormType.INFINITY
-    # the normwise backward error: what a stable LU keeps at round-off, whatever the
-    # condition number
-    backward = r.norm(inf) / (A.norm(inf) * x.norm(inf) + b.norm(inf))
-    return ctx, r.norm() / b.norm(), backward, ksp.getConvergedReason()
+    with _SinglePrecisionKSP(A) as ksp:
+        b = A.createVecLeft()
+        b.set(1.0)
+        x = b.duplicate()
+        for _ in range(times):
+            ksp.solve(b, x)
+        res, backward = _errors(A, x, b)
+        return refined_lu(ksp), res, backward, ksp.getConvergedReason()
 
 
 def _laplacian(n: int, shift: float):
@@ -357,46 +382,29 @@ def test_a_fallback_holds_one_factorisation_at_a_time():
     double round-off. A failure means a fallback left the approximate solver without
     its settings (a double LU, or no LU), or freed a factorisation still in use.
     """
-    from petsc4py import PETSc
-
     from forming.solver.linear import refined_lu
-    from forming.solver.options import NewtonOptions
 
-    prefix = "refined_reset_"
-    opts = PETSc.Options()
-    keys = NewtonOptions(linear_solver="mumps", lu_precision="single").petsc_options()
-    for k, v in keys.items():
-        if not k.startswith("snes_"):
-            opts[prefix + k] = v
     hard, easy = _laplacian(200, 1e-10), _laplacian(200, 1.0)
-    ksp = PETSc.KSP().create(hard.getComm())
-    ksp.setOptionsPrefix(prefix)
-    ksp.setOperators(hard)
-    ksp.setFromOptions()
-    b = hard.createVecLeft()
-    b.set(1.0)
-    x, r = b.duplicate(), b.duplicate()
-    ksp.solve(b, x)
-    ctx = refined_lu(ksp)
-    assert ctx.counts()["exact_fallbacks"] == 1
-    before = ctx.counts()["refinement_iterations"]
-    ksp.setOperators(easy)
-    ksp.solve(b, x)
-    easy.mult(x, r)
-    r.axpy(-1.0, b)
-    assert ksp.getConvergedReason() > 0 and r.norm() <= 1e-10 * b.norm()
-    counts = ctx.counts()
-    assert counts["exact_fallbacks"] == 1 and not counts["exact_only"], counts
-    assert 2 <= counts["refinement_iterations"] - before <= 4, counts
-    ksp.setOperators(hard)
-    ksp.solve(b, x)
-    hard.mult(x, r)
-    r.axpy(-1.0, b)
-    assert ctx.counts()["exact_fallbacks"] == 2
-    backward = r.norm(PETSc.NormType.INFINITY) / (
-        hard.norm(PETSc.NormType.INFINITY) * x.norm(PETSc.NormType.INFINITY) + 1.0)
-    assert ksp.getConvergedReason() > 0 and backward <= 1e-13, backward
-    ksp.destroy()
+    with _SinglePrecisionKSP(hard, "refined_reset_") as ksp:
+        b = hard.createVecLeft()
+        b.set(1.0)
+        x = b.duplicate()
+        ksp.solve(b, x)
+        ctx = refined_lu(ksp)
+        assert ctx.counts()["exact_fallbacks"] == 1
+        before = ctx.counts()["refinement_iterations"]
+        ksp.setOperators(easy)
+        ksp.solve(b, x)
+        res, _ = _errors(easy, x, b)
+        assert ksp.getConvergedReason() > 0 and res <= 1e-10
+        counts = ctx.counts()
+        assert counts["exact_fallbacks"] == 1 and not counts["exact_only"], counts
+        assert 2 <= counts["refinement_iterations"] - before <= 4, counts
+        ksp.setOperators(hard)
+        ksp.solve(b, x)
+        _, backward = _errors(hard, x, b)
+        assert ctx.counts()["exact_fallbacks"] == 2
+        assert ksp.getConvergedReason() > 0 and backward <= 1e-13, backward
 
 
 def test_the_lifting_left_out_where_it_is_zero_changes_no_bit(monkeypatch):

@@ -429,8 +429,7 @@ class HexInternalForce:
         With the distortion control, its stored energy too (both artificial strain
         energy, Abaqus' ALLAE).
         """
-        stored = self.distortion.stored if self.distortion is not None else 0.0
-        return float(self.hg_energy.sum()) + stored
+        return float(self.hg_energy.sum()) + self.distortion_energy
 
     @property
     def distortion_energy(self) -> float:

@@ -93,7 +93,9 @@ class RefinedLU:
     iterations (a crushing core with elements near inversion, the thin walls of a meso
     patch), the same matrix is factorised exactly, by MUMPS's plain LU in double
     precision (prefix ``<prefix>exact_``), and that solve is the answer. Either way the
-    Newton step is the exact LU's to the linear tolerance. Once two solves have fallen
+    Newton step is the exact LU's to the linear tolerance, and the two factorisations
+    are never held at once (a fallback frees the approximate factors before it, the exact
+    ones after it: the next Jacobian is factorised anew). Once two solves have fallen
     back and they are more than half of the solves so far, the approximate
     factorisation is dropped (its memory freed) and every later solve is exact at
     once. See docs/theory.md, section 7.
