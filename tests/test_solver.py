@@ -435,3 +435,35 @@ def test_the_lifting_left_out_where_it_is_zero_changes_no_bit(monkeypatch):
     _, _, residuals_lifted, u_lifted = step()
     assert residuals == residuals_lifted
     assert np.array_equal(u, u_lifted)
+
+
+def test_a_stalled_newton_solve_gives_up_early(tmp_path):
+    """``newton.stall`` ends a solve whose residual stopped falling; bad values refused.
+
+    ``core_crushing`` on 4 x 4 x 3 elements: the second step, to 1 mm into the crushing
+    core, stalls under the backtracking line search (it spends all 25 iterations at an
+    almost constant residual without the option). With ``stall=5`` the solve must give up as soon
+    as the residual has fallen by less than a tenth over 5 iterations, with its own
+    reason, so that the step is cut at once. A failure means the rule fires too late, not
+    at all, or on a residual that was still falling.
+    """
+    from forming.case import prepare_case
+    from forming.errors import InputError
+    from forming.simulation import Simulation
+
+    with pytest.raises(InputError, match="newton.stall"):
+        NewtonOptions(stall=-1)
+    sets = ["cells=4,4,3", "newton.stall=5"]
+    job, params = prepare_case("core_crushing", sets)
+    sim = Simulation(job, tmp_path, "core_crushing", params, sets)
+    try:
+        for _ in range(5):  # up to the first failed step
+            if not (res := sim.step()).converged:
+                break
+    finally:
+        sim.solver.close()
+    assert not res.converged and res.reason.startswith("stalled")
+    r = res.residuals
+    assert 5 <= res.work < 25 and len(r) == res.work + 1
+    assert r[-1] > 0.9 * r[-6]  # the rule held where it fired ...
+    assert all(r[i] <= 0.9 * r[i - 5] for i in range(5, len(r) - 1))  # ... and not before

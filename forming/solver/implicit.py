@@ -100,9 +100,9 @@ class ImplicitSolver:
         snes.setJacobian(weak(self._jacobian), self.problem.A, None)
         snes.setMonitor(weak(self._monitor))
         self._one_loop = self.options.multipliers == "newton" and bool(model.constraints)
-        if self._one_loop:
+        if self._one_loop or self.options.stall:
             snes.setConvergenceTest(weak(self._converged))
-        self._fnorm0 = 0.0
+        self._fnorms: list[float] = []  # the residual norms of the current solve
         self._updates = 0
         self._compiled = compiled_jacobian(model, self.problem.A, self.options.jacobian)
         linear.configure(self.problem.A, [b.V for b in bodies], self.options)
@@ -201,7 +201,8 @@ class ImplicitSolver:
     def _violation(self) -> float:
         """Largest constraint violation at the current iterate, in tolerance units."""
         t0 = time.perf_counter()
-        worst = max(c.violation() / c.tolerance for c in self.model.constraints)
+        worst = max((c.violation() / c.tolerance for c in self.model.constraints),
+                    default=0.0)
         self._contact_s += time.perf_counter() - t0
         return worst
 
@@ -231,22 +232,28 @@ class ImplicitSolver:
         than the contact tolerance does not end the solve: the multipliers take the
         tractions (:meth:`_augment`) and Newton goes on from the same iterate with the
         new residual. Below the tolerance the multipliers stay, so the converged
-        traction is the one the solution was computed with.
+        traction is the one the solution was computed with. With ``stall``, a residual
+        that fell by less than a tenth over that many iterations ends the solve.
         """
         _xnorm, _ynorm, fnorm = norms
         rtol, atol, _stol, max_it = snes.getTolerances()
         if its == 0:
-            self._fnorm0 = fnorm
+            self._fnorms = []
+        self._fnorms.append(fnorm)
         if not np.isfinite(fnorm):  # (a failed line-search trial is not the iterate)
             return PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_NANORINF
         absolute = fnorm < atol
-        if absolute or (its > 0 and fnorm <= rtol * self._fnorm0):
+        if absolute or (its > 0 and fnorm <= rtol * self._fnorms[0]):
             if self._violation() <= 1.0:
                 return (PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS if absolute
                         else PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE)
             if its < max_it and self._updates < self.options.max_augmentations:
                 self._augment(snes)
         if its >= max_it:
+            return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
+        n = self.options.stall
+        if n and its >= n and fnorm > 0.9 * self._fnorms[its - n]:
+            self._failure = f"stalled: the residual fell by less than 10% in {n} iterations"
             return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
         return PETSc.SNES.ConvergedReason.ITERATING
 
@@ -298,8 +305,8 @@ class ImplicitSolver:
         except (KernelFailure, PETSc.Error) as exc:
             ok, reason = False, f"error: {exc}"
         self._newton_s += time.perf_counter() - t0
-        if self._failure and not ok:
-            reason = f"{reason} ({self._failure})"
+        if self._failure and not ok:  # (a stall is no PETSc reason: its own words)
+            reason = self._failure if "stalled" in self._failure else f"{reason} ({self._failure})"
         return ok, reason
 
     def solve(self) -> StepResult:
