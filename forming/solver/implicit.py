@@ -102,7 +102,7 @@ class ImplicitSolver:
         self._one_loop = self.options.multipliers == "newton" and bool(model.constraints)
         if self._one_loop or self.options.stall:
             snes.setConvergenceTest(weak(self._converged))
-        self._fnorms: list[float] = []  # the residual norms of the current solve
+        self._fnorm0, self._recent = 0.0, []  # a solve's first norm; those since an update
         self._updates = 0
         self._compiled = compiled_jacobian(model, self.problem.A, self.options.jacobian)
         linear.configure(self.problem.A, [b.V for b in bodies], self.options)
@@ -233,26 +233,28 @@ class ImplicitSolver:
         tractions (:meth:`_augment`) and Newton goes on from the same iterate with the
         new residual. Below the tolerance the multipliers stay, so the converged
         traction is the one the solution was computed with. With ``stall``, a residual
-        that fell by less than a tenth over that many iterations ends the solve.
+        that fell by less than a tenth over that many iterations (since the solve began
+        or the multipliers last changed it) ends the solve.
         """
         _xnorm, _ynorm, fnorm = norms
         rtol, atol, _stol, max_it = snes.getTolerances()
         if its == 0:
-            self._fnorms = []
-        self._fnorms.append(fnorm)
+            self._fnorm0, self._recent = fnorm, []
+        self._recent.append(fnorm)
         if not np.isfinite(fnorm):  # (a failed line-search trial is not the iterate)
             return PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_NANORINF
         absolute = fnorm < atol
-        if absolute or (its > 0 and fnorm <= rtol * self._fnorms[0]):
+        if absolute or (its > 0 and fnorm <= rtol * self._fnorm0):
             if self._violation() <= 1.0:
                 return (PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS if absolute
                         else PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE)
             if its < max_it and self._updates < self.options.max_augmentations:
                 self._augment(snes)
+                self._recent = []  # a new residual: the stall window starts again
         if its >= max_it:
             return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
         n = self.options.stall
-        if n and its >= n and fnorm > 0.9 * self._fnorms[its - n]:
+        if n and len(self._recent) > n and fnorm > 0.9 * self._recent[-1 - n]:
             self._failure = f"stalled: the residual fell by less than 10% in {n} iterations"
             return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
         return PETSc.SNES.ConvergedReason.ITERATING
@@ -306,7 +308,8 @@ class ImplicitSolver:
             ok, reason = False, f"error: {exc}"
         self._newton_s += time.perf_counter() - t0
         if self._failure and not ok:  # (a stall is no PETSc reason: its own words)
-            reason = self._failure if "stalled" in self._failure else f"{reason} ({self._failure})"
+            reason = (self._failure if self._failure.startswith("stalled")
+                      else f"{reason} ({self._failure})")
         return ok, reason
 
     def solve(self) -> StepResult:
@@ -432,22 +435,20 @@ class ImplicitSolver:
         """Newton iterations and the cost split, rank means [s].
 
         ``newton_iterations`` counts rejected steps too; ``newton_per_step`` is over
-        accepted steps. ``kernel_s`` is the material kernels inside Newton,
-        ``assembly_s`` the residual and Jacobian callbacks less the kernels,
-        ``linear_solve_s`` the rest of Newton (factorisation and solves, less the
-        multiplier updates made inside it), ``contact_s`` the constraint checks and
-        multiplier updates;
-        ``per_iteration_ms`` divides each by the Newton iterations; ``linear_solver``
-        names the solver used (``auto`` chosen for the model's size), ``lu_precision``
-        the precision of its factorisation (the same);
-        ``jacobian_nonzeros`` is the entries the Jacobian stores at the end, over ranks,
-        ``jacobian_zeros`` whether its exact zeros were dropped or kept,
-        ``jacobian`` whether the body's tangent was ``compiled`` or from its ``forms``,
-        ``jacobian_mallocs`` PETSc's count of allocations while entries were inserted into
-        the Jacobian over the run (MatGetInfo's ``mallocs``: entries outside its pattern);
-        with an approximate LU (single precision or compressed), ``linear_solves``,
-        ``refinement_iterations``, ``exact_fallbacks`` and ``exact_only``
-        (:class:`~forming.solver.linear.RefinedLU`).
+        accepted steps. ``kernel_s`` is the material kernels inside Newton, ``assembly_s``
+        the residual and Jacobian callbacks less the kernels, ``linear_solve_s`` the rest
+        of Newton (factorisation and solves, less the multiplier updates made inside it),
+        ``contact_s`` the constraint checks and multiplier updates; ``per_iteration_ms``
+        divides each by the Newton iterations; ``linear_solver`` names the solver used
+        (``auto`` chosen for the model's size), ``lu_precision`` the precision of its
+        factorisation (the same); ``jacobian_nonzeros`` is the entries the Jacobian stores
+        at the end, over ranks, ``jacobian_zeros`` whether its exact zeros were dropped or
+        kept, ``jacobian`` whether the body's tangent was ``compiled`` or from its
+        ``forms``, ``jacobian_mallocs`` PETSc's count of allocations while entries were
+        inserted into the Jacobian over the run (MatGetInfo's ``mallocs``: entries outside
+        its pattern); with an approximate LU (single precision or compressed),
+        ``linear_solves``, ``refinement_iterations``, ``exact_fallbacks`` and
+        ``exact_only`` (:class:`~forming.solver.linear.RefinedLU`).
         """
         comm = self.model.comm
 

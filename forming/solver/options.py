@@ -75,8 +75,8 @@ class NewtonOptions:
             by less than a tenth over the last ``stall`` iterations; 0 (default): only
             at ``max_it``. The backtracking line search can hold a residual constant for
             twenty iterations where the crushing core softens: on ``core_crushing`` 5
-            saves 31% of the iterations, on another path; but a run whose steps converge
-            slowly can be cut to a stop (the demonstrator; docs/performance.md).
+            saves 31% of the iterations, on another path (docs/performance.md). The
+            window starts again where the contact multipliers change the residual.
         line_search: ``"basic"`` (full Newton step), ``"bt"`` (backtracking) or ``"l2"``
             (PETSc's secant minimisation of the residual norm along the Newton step).
         predictor: ``"extrapolate"`` (linear in the load parameter) or ``"previous"``.
