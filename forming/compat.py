@@ -7,6 +7,7 @@ The PyPI stack ships PETSc in ``dolfinx_solver``, which must be imported before
 from __future__ import annotations
 
 import importlib.metadata
+import os
 import sys
 
 try:  # PyPI wheels: load the PETSc that dolfinx was built against
@@ -21,8 +22,14 @@ import numpy as np  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
 # C compiler flags of the solve forms (residual and Jacobian): vectorised for the machine
-# that runs them (the FFCx cache is per machine). DOLFINx's default is "-O2 -g0".
-SOLVE_JIT_OPTIONS = {"cffi_extra_compile_args": ["-O3", "-march=native"]}
+# that runs them (the FFCx cache is per machine). DOLFINx's default is "-O2 -g0". "-g0"
+# drops the debug information Python's own CFLAGS ask for ("-g"): the same code, compiled
+# in half the time. FORMING_SOLVE_CFLAGS (space-separated) replaces them: the test suite
+# compiles with "-O2" (benchmarks/jit_flags.py, docs/performance.md).
+SOLVE_CFLAGS = ("-O3", "-march=native", "-g0")
+SOLVE_JIT_OPTIONS = {"cffi_extra_compile_args": (
+    os.environ["FORMING_SOLVE_CFLAGS"].split() if os.environ.get("FORMING_SOLVE_CFLAGS")
+    else list(SOLVE_CFLAGS))}
 
 
 def _python_signal_handling() -> None:

@@ -156,6 +156,11 @@ case "$cmd" in
         rc=0
         "$venv/bin/ruff" check --quiet . || rc=$?
         warm_kernels
+        # The solve forms at -O2: on an empty FFCx cache (~/.cache/fenics, a new machine)
+        # the suite compiles about a thousand forms, and -O3 takes 3-5 times as long to
+        # compile them as it gains in assembly (docs/performance.md, "Compiling the solve
+        # forms").
+        export FORMING_SOLVE_CFLAGS="${FORMING_SOLVE_CFLAGS:--O2 -march=native -g0}"
         # Two workers (CI has two cores; FORMING_TEST_WORKERS=0 runs them in this process),
         # each test given to whichever worker is free, so the longest ones do not queue.
         "$venv/bin/python" -m pytest -n "${FORMING_TEST_WORKERS:-2}" --dist worksteal "$@" \
