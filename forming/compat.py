@@ -24,7 +24,7 @@ from petsc4py import PETSc  # noqa: E402
 # C compiler flags of the solve forms (residual and Jacobian): vectorised for the machine
 # that runs them (the FFCx cache is per machine). DOLFINx's default is "-O2 -g0". "-g0"
 # drops the debug information Python's own CFLAGS ask for ("-g"): the same code, compiled
-# in half the time. FORMING_SOLVE_CFLAGS (space-separated) replaces them: the test suite
+# faster. FORMING_SOLVE_CFLAGS (space-separated) replaces them: the test suite
 # compiles with "-O2" (benchmarks/jit_flags.py, docs/performance.md).
 SOLVE_CFLAGS = ("-O3", "-march=native", "-g0")
 SOLVE_JIT_OPTIONS = {"cffi_extra_compile_args": (
