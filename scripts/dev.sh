@@ -155,12 +155,12 @@ case "$cmd" in
     test)
         rc=0
         "$venv/bin/ruff" check --quiet . || rc=$?
-        warm_kernels
-        # The solve forms at -O2: on an empty FFCx cache (~/.cache/fenics, a new machine)
-        # the suite compiles about a thousand forms, and -O3 costs more compile time than
-        # the suite's short runs gain from it (docs/performance.md, "The test suite from an
-        # empty FFCx cache").
+        # The solve forms at -O2, the warm-up's small models' too: on an empty FFCx cache
+        # (~/.cache/fenics, a new machine) the suite compiles about a thousand forms, and
+        # -O3 costs more compile time than the suite's short runs gain from it
+        # (docs/performance.md, "The test suite from an empty FFCx cache").
         export FORMING_SOLVE_CFLAGS="${FORMING_SOLVE_CFLAGS:--O2 -march=native -g0}"
+        warm_kernels
         # Two workers (CI has two cores; FORMING_TEST_WORKERS=0 runs them in this process),
         # each test given to whichever worker is free, so the longest ones do not queue.
         "$venv/bin/python" -m pytest -n "${FORMING_TEST_WORKERS:-2}" --dist worksteal "$@" \
