@@ -27,9 +27,8 @@ from petsc4py import PETSc  # noqa: E402
 # faster. FORMING_SOLVE_CFLAGS (space-separated) replaces them: the test suite
 # compiles with "-O2" (benchmarks/jit_flags.py, docs/performance.md).
 SOLVE_CFLAGS = ("-O3", "-march=native", "-g0")
-SOLVE_JIT_OPTIONS = {"cffi_extra_compile_args": (
-    os.environ["FORMING_SOLVE_CFLAGS"].split() if os.environ.get("FORMING_SOLVE_CFLAGS")
-    else list(SOLVE_CFLAGS))}
+SOLVE_JIT_OPTIONS = {"cffi_extra_compile_args":
+                     os.environ.get("FORMING_SOLVE_CFLAGS", "").split() or list(SOLVE_CFLAGS)}
 
 
 def _python_signal_handling() -> None:
