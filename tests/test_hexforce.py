@@ -209,7 +209,8 @@ def test_thickness_points_follow_the_axis_nearest_z():
     on their side of the element's mid-plane (in z). A failure means the axis choice or
     the point map is wrong.
     """
-    from forming.bodies.hexforce import _XI, thickness_axes
+    from forming.bodies.hexforce import _XI
+    from forming.bodies.hexgeometry import thickness_axes
 
     body = _body(ElasticSolid(IsotropicElasticity(10.0, 0.3)), cells=(2, 2, 2), distort=0.1)
     loop = body.explicit_internal_force("thickness", 0.1, DENSITY)

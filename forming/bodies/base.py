@@ -113,10 +113,12 @@ class DeformableBody(Protocol):
         """Stiffness-proportional damping forces at velocities ``v``, or None (explicit runs)."""
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
-                                plastic_floor: float = 0.3, distortion: float = 0.0):
+                                plastic_floor: float = 0.3, distortion: float = 0.0,
+                                adaptive_strain: float = 0.01):
         """Element loops for the explicit solver, or None to use the form.
 
-        The loops are a :class:`~forming.bodies.hexforce.HexInternalForce`.
+        The loops are a :class:`~forming.bodies.hexforce.HexInternalForce` or, for
+        ``integration="adaptive"``, a :class:`~forming.bodies.hexadaptive.AdaptiveHexForce`.
         """
 
     def compiled_tangent(self):
@@ -199,9 +201,10 @@ class BodyBase:
         del v, beta, w
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
-                                plastic_floor: float = 0.3, distortion: float = 0.0):
+                                plastic_floor: float = 0.3, distortion: float = 0.0,
+                                adaptive_strain: float = 0.01):
         """None: the explicit solver assembles this body's internal forces from its form."""
-        del integration, hourglass, density, plastic_floor, distortion
+        del integration, hourglass, density, plastic_floor, distortion, adaptive_strain
 
     def compiled_tangent(self):
         """None: the implicit solver assembles this body's Jacobian from its form."""

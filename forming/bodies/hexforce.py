@@ -50,6 +50,12 @@ from mpi4py import MPI
 
 from forming import compat  # noqa: F401
 from forming.bodies.corners import DistortionControl
+from forming.bodies.hexgeometry import (
+    mode_stiffness,
+    point_geometry,
+    thickness_axes,
+    thickness_points,
+)
 from forming.bodies.hexkernels import nodal_forces, right_cauchy_green, tangent_ratio
 from forming.errors import InputError, KernelFailure
 from forming.materials.solids import point_stress
@@ -60,158 +66,6 @@ _XI = 2.0 * basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedro
 # Hourglass base vectors xi eta, eta zeta, zeta xi, xi eta zeta at the nodes (4, 8).
 _H = np.array([_XI[:, 0] * _XI[:, 1], _XI[:, 1] * _XI[:, 2], _XI[:, 2] * _XI[:, 0],
                _XI[:, 0] * _XI[:, 1] * _XI[:, 2]])
-_P1 = basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron, 1)
-
-
-def shape_gradients(x: np.ndarray, points: np.ndarray,
-                    element=_P1) -> tuple[np.ndarray, np.ndarray]:
-    """Reference gradients of the shape functions and the Jacobians at ``points``.
-
-    Isoparametric: the Jacobian is that of the element's own nodes.
-
-    Args:
-        x: (n_cells, n_nodes, 3) node coordinates.
-        points: (n_q, 3) points of the reference cell [0, 1]^3.
-        element: The basix element of the displacement (P1 by default).
-
-    Returns:
-        (gradients (n_cells, n_q, n_nodes, 3), det J (n_cells, n_q)).
-
-    Raises:
-        InputError: An element is inverted or degenerate in the reference mesh.
-    """
-    dxi = element.tabulate(1, points)[1:4, :, :, 0]  # (3, n_q, n): d N_a / d xi_k
-    jac = np.einsum("cai,kqa->cqik", x, dxi)  # d x_i / d xi_k
-    det = np.linalg.det(jac)
-    if np.any(det <= 0.0):
-        raise InputError("mesh", f"{int(np.sum(det <= 0))} hexahedron points with det J <= 0 "
-                         "(inverted or degenerate elements)")
-    inv = np.linalg.inv(jac)  # d xi_k / d x_j
-    return np.einsum("kqa,cqkj->cqaj", dxi, inv), det
-
-
-def point_geometry(body, element=_P1) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                np.ndarray]:
-    """Nodes, shape-function gradients and weights at a body's own quadrature points.
-
-    On the rank's owned cells (:attr:`~forming.bodies.solid.SolidBody.point_cells`), in
-    the order of the body's points.
-
-    Args:
-        body: The solid on hexahedra.
-        element: The basix element of its displacement.
-
-    Returns:
-        (nodes (n_cells, n_nodes), gradients (n_cells, n_q, n_nodes, 3), quadrature
-        weight times det J (n_cells, n_q), node coordinates (n_cells, n_nodes, 3)).
-
-    Raises:
-        InputError: The body's points are not basix's Gauss points of its degree.
-    """
-    nodes = np.ascontiguousarray(body.V.dofmap.list[body.point_cells], dtype=np.int64)
-    x = body.V.tabulate_dof_coordinates()[nodes]
-    pts = body.QS.element.interpolation_points
-    qpts, qw = basix.make_quadrature(basix.CellType.hexahedron, body.quadrature_degree)
-    if not np.allclose(qpts, pts):  # the body's points, in its order
-        raise InputError(f"body.{body.name}", "quadrature points differ from basix's")
-    grads, det = shape_gradients(x, pts, element)
-    return nodes, np.ascontiguousarray(grads), np.ascontiguousarray(det * qw), x
-
-
-def thickness_axes(x: np.ndarray, element=_P1) -> np.ndarray:
-    """The reference axis of each element nearest the global z (its thickness).
-
-    Args:
-        x: (n_cells, n_nodes, 3) node coordinates.
-        element: The basix element of the nodes.
-
-    Returns:
-        (n_cells,) 0, 1 or 2: the axis whose tangent at the centre has the largest share
-        of z.
-    """
-    dxi = element.tabulate(1, np.full((1, 3), 0.5))[1:4, 0, :, 0]  # (3, n)
-    tangents = np.einsum("cai,ka->cki", x, dxi)
-    share = np.abs(tangents[:, :, 2]) / np.linalg.norm(tangents, axis=2)
-    return np.argmax(share, axis=1)
-
-
-def thickness_points(x: np.ndarray, axis: np.ndarray, body_points: np.ndarray,
-                     mean: np.ndarray, volume: np.ndarray,
-                     element=_P1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Gradients and weights at two Gauss points on each element's thickness axis.
-
-    The gradients at the points ``g_q`` are shifted by the element's distortion,
-    ``b_q = g_q - sum_q w_q g_q / V + b``, with ``b`` the exact mean gradient and the
-    weights ``w_q`` the points' shares of the exact volume ``V`` (by det J): then
-    ``sum_q w_q b_q = int grad N dV`` exactly, so a homogeneous deformation of a
-    distorted mesh leaves the interior nodes in equilibrium (the patch test), and
-    every linear field still has its exact gradient at both points. On a parallelepiped
-    the shift is zero.
-
-    Args:
-        x: (n_cells, n_nodes, 3) node coordinates.
-        axis: (n_cells,) each element's thickness axis (:func:`thickness_axes`).
-        body_points: (n_q, 3) the body's own points on the reference cell [0, 1]^3.
-        mean: (n_cells, n_nodes, 3) exact mean shape-function gradients.
-        volume: (n_cells,) exact element volumes.
-        element: The basix element of the nodes.
-
-    Returns:
-        (gradients (n_cells, 2, n_nodes, 3), weights (n_cells, 2), the index of the
-        point on each body point's side of the mid-plane, ``2 c + side`` (n_cells, n_q)).
-    """
-    nc = x.shape[0]
-    grads = np.empty((nc, 2, x.shape[1], 3))
-    det = np.empty((nc, 2))
-    for k in range(3):
-        sel = axis == k
-        if not sel.any():
-            continue
-        pts = np.full((2, 3), 0.5)
-        pts[:, k] = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)
-        grads[sel], det[sel] = shape_gradients(x[sel], pts, element)
-    weights = volume[:, None] * det / det.sum(axis=1, keepdims=True)
-    gbar = np.einsum("cq,cqaj->caj", weights, grads) / volume[:, None, None]
-    grads += (mean - gbar)[:, None]
-    side = body_points[:, axis].T > 0.5  # (n_cells, n_q): above the mid-plane
-    return grads, weights, 2 * np.arange(nc)[:, None] + side.astype(np.int64)
-
-
-def mode_stiffness(gamma: np.ndarray, grads: np.ndarray, weights: np.ndarray,
-                   cel: np.ndarray) -> np.ndarray:
-    """Stiffness of each hourglass mode of each element under full integration [N/mm].
-
-    For mode ``alpha`` in displacement component ``i`` (nodal displacements
-    ``u_a = gamma_alpha,a e_i``, whose mode amplitude is ``q = |gamma|^2``), the element's
-    elastic 2 x 2 x 2 stiffness gives the energy ``u.K.u / 2``; the stiffness of the
-    amplitude is ``k = u.K.u / |gamma|^4``. It takes the material's anisotropy and the
-    element's shape into account: an in-plane mode of the honeycomb core is resisted by
-    its in-plane moduli, not by its through-thickness one.
-
-    Args:
-        gamma: (n_cells, 4, 8) hourglass vectors.
-        grads: (n_cells, n_q, 8, 3) shape-function gradients at the full points.
-        weights: (n_cells, n_q) quadrature weights times det J.
-        cel: (6, 6) Mandel elastic stiffness in the global frame.
-
-    Returns:
-        (n_cells, 4, 3) stiffness of every mode and component.
-    """
-    g = np.einsum("cma,cqaj->cmqj", gamma, grads)  # gradient of the mode's shape
-    r = 1.0 / np.sqrt(2.0)
-    out = np.zeros(gamma.shape[:2] + (3,))
-    for i in range(3):
-        eps = np.zeros(g.shape[:3] + (6,))  # Mandel sym(e_i (x) g)
-        eps[..., i] = g[..., i]
-        for m, (a, b) in enumerate(((1, 2), (0, 2), (0, 1)), start=3):
-            if i == a:
-                eps[..., m] = r * g[..., b]
-            elif i == b:
-                eps[..., m] = r * g[..., a]
-        energy = np.einsum("cmqk,kl,cmql,cq->cm", eps, cel, eps, weights)
-        out[..., i] = energy / np.sum(gamma * gamma, axis=2) ** 2
-    return out
-
 
 def loop_timing(loops: list[HexInternalForce], comm) -> dict[str, float]:
     """The element loops' wall time on the busiest rank, and that over the ranks' mean.
@@ -234,6 +88,22 @@ def distortion_energy(loops: list[HexInternalForce], comm) -> float:
     Collective.
     """
     return comm.allreduce(sum(loop.distortion_energy for loop in loops), op=MPI.SUM)
+
+
+def loop_metrics(loops: list, comm) -> dict[str, float]:
+    """Figures of the element loops for ``summary.json`` metrics; collective.
+
+    ``distortion_energy_Nmm``: the distortion control's energy over all ranks;
+    ``full_integration_fraction`` (adaptive integration only): the share of its
+    elements fully integrated at the end.
+    """
+    out = {"distortion_energy_Nmm": distortion_energy(loops, comm)}
+    adaptive = [loop for loop in loops if hasattr(loop, "full_fraction")]
+    if comm.allreduce(len(adaptive), op=MPI.SUM):
+        full = comm.allreduce(sum(int(loop.full.sum()) for loop in adaptive), op=MPI.SUM)
+        count = comm.allreduce(sum(loop.n_cells for loop in adaptive), op=MPI.SUM)
+        out["full_integration_fraction"] = full / count if count else 0.0
+    return out
 
 
 def smallest_corner_det(loops: list[HexInternalForce]) -> float:
@@ -260,6 +130,8 @@ class HexInternalForce:
         distortion: Corner determinant ratio below which a reduced or thickness element
             is held from folding by the distortion control
             (:class:`~forming.bodies.corners.DistortionControl`); 0: none.
+        cells: Positions in the body's :attr:`point_cells` of the elements this loop
+            takes (the adaptive integration's two loops); None: all owned cells.
 
     Raises:
         InputError: Not a hexahedral body of degree 1 or 2, reduced integration of a
@@ -267,7 +139,8 @@ class HexInternalForce:
     """
 
     def __init__(self, body, integration: str, hourglass: float, density: float,
-                 plastic_floor: float = 0.3, distortion: float = 0.0):
+                 plastic_floor: float = 0.3, distortion: float = 0.0,
+                 cells: np.ndarray | None = None):
         degree = body.spec.degree
         if body.mesh.topology.cell_name() != "hexahedron" or degree not in (1, 2):
             raise InputError(f"body.{body.name}",
@@ -292,7 +165,18 @@ class HexInternalForce:
         self.reduced = integration != "full"  # hourglass-controlled
         element = basix.create_element(basix.ElementFamily.P, basix.CellType.hexahedron,
                                        degree, basix.LagrangeVariant.gll_warped)
-        self.nodes, grads, weights, x = point_geometry(body, element)
+        if cells is not None and body.damaging:
+            raise InputError("explicit.integration", "a fracturing body's elements are "
+                             f"integrated in one loop ({body.name!r})")
+        self.nodes, grads, weights, x = point_geometry(body, element, cells)
+        self.reference_nodes = x  # (n_cells, n_nodes, 3)
+        # each element's position in the body's point_cells
+        self.cell_positions = (np.arange(len(self.nodes)) if cells is None
+                               else np.asarray(cells, dtype=np.int64))
+        # the body's points of this loop's cells, in order (None: all of them)
+        self._body_points = None if cells is None else (
+            np.asarray(cells, dtype=np.int64)[:, None] * weights.shape[1]
+            + np.arange(weights.shape[1])).ravel()
         modulus = float(np.max(np.diag(body.material.kernel_data().cel)))
         # the Flanagan-Belytschko bound is a trilinear element's: a P2 body's step comes
         # from the Gershgorin bound alone, as through its forms
@@ -337,7 +221,9 @@ class HexInternalForce:
         ps = body.plastic
         self.damaging = body.damaging
         self._cells = body.band_geometry  # None unless it fractures
-        if ps is not None and not self.reduced:  # the body's own points: its own arrays
+        if not self.reduced and cells is not None:  # a subset's points, in its order
+            self.point_map = np.arange(n).reshape(nc, self.per_cell)
+        if ps is not None and self.point_map is None:  # the body's own points and arrays
             self.ep, self.evp, self.ep_trial, self.evp_trial = (
                 ps.ep, ps.evp, ps.ep_trial, ps.evp_trial)
         else:
@@ -382,23 +268,31 @@ class HexInternalForce:
         body = self.body
         u = body.u.x.array
         out.array[:] = 0.0
-        failure = self._local_forces(u, out.array)
+        failure = self.add_local_forces(u, out.array)
         self.seconds += time.perf_counter() - t0
         out.scatter_reverse(la.InsertMode.add)
         out.scatter_forward()
         if failure:
             raise KernelFailure(failure)
 
-    def _local_forces(self, u: np.ndarray, out: np.ndarray) -> str:
-        """This rank's element forces into ``out``; what failed ("": nothing)."""
+    def add_local_forces(self, u: np.ndarray, out: np.ndarray) -> str:
+        """Add this rank's element forces to ``out`` (no scatter); what failed ("": nothing).
+
+        Args:
+            u: The body's displacement array (owned and ghost entries).
+            out: The array to add the forces to.
+        """
         body = self.body
         right_cauchy_green(u, self.nodes, self.grads, self.fm, self.cm, self.detf)
         inverted = self.detf <= 0.0
         if self.damaging:  # an eroded point's shape is no longer checked
             inverted &= body.active_points()
         if inverted.any():
+            first = np.zeros(body.n_points, dtype=bool)  # its first point, as the body's
+            cell = self.cell_positions[int(np.argmax(inverted)) // self.per_cell]
+            first[cell * (body.n_points // len(body.point_cells))] = True
             return (f"{int(np.count_nonzero(inverted))} integration points: inverted "
-                    f"elements (det F <= 0) in body {body.name!r}{body.locate(inverted)}")
+                    f"elements (det F <= 0) in body {body.name!r}{body.locate(first)}")
         nbad, worst = point_stress(body.material, self.cm, self.ep, self.evp, self.stress,
                                    self.ep_trial, self.evp_trial, body.load_increment,
                                    body.travel, self._cells)
@@ -469,10 +363,11 @@ class HexInternalForce:
             self.body.invalidate()
             return
         where = self.point_map.ravel()
-        ps.ep[:] = self.ep[where]
-        ps.evp[:] = self.evp[where]
-        ps.ep_trial[:] = ps.ep
-        ps.evp_trial[:] = ps.evp
+        mine = slice(None) if self._body_points is None else self._body_points
+        ps.ep[mine] = self.ep[where]
+        ps.evp[mine] = self.evp[where]
+        ps.ep_trial[mine] = ps.ep[mine]
+        ps.evp_trial[mine] = ps.evp[mine]
         self.body.invalidate()
 
     def pull(self) -> None:
@@ -485,9 +380,10 @@ class HexInternalForce:
         if ps is None or n == 0 or ps.ep is self.ep:  # (a rank may own no cell)
             return
         where = self.point_map.ravel()
+        mine = slice(None) if self._body_points is None else self._body_points
         count = np.bincount(where, minlength=n).astype(float)
-        self.evp[:] = np.bincount(where, ps.evp, minlength=n) / count
+        self.evp[:] = np.bincount(where, ps.evp[mine], minlength=n) / count
         for i in range(6):
-            self.ep[:, i] = np.bincount(where, ps.ep[:, i], minlength=n) / count
+            self.ep[:, i] = np.bincount(where, ps.ep[mine, i], minlength=n) / count
         self.ep_trial[:] = self.ep
         self.evp_trial[:] = self.evp

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from forming.bodies.hexforce import point_geometry
+from forming.bodies.hexgeometry import point_geometry
 from forming.bodies.hexkernels import point_gradient
 from forming.errors import InputError
 

@@ -20,6 +20,7 @@ from mpi4py import MPI
 from forming import compat  # noqa: F401  (imports dolfinx the right way)
 from forming.bodies.base import BodyBase
 from forming.bodies.corners import CornerWatch
+from forming.bodies.hexadaptive import AdaptiveHexForce
 from forming.bodies.hexforce import HexInternalForce
 from forming.bodies.hextangent import HexTangent
 from forming.domain import BodyDomain
@@ -240,8 +241,9 @@ class SolidBody(BodyBase):
         return (self.domain.layout(self.V), plastic, self.domain.layout(self.QS))
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
-                                plastic_floor: float = 0.3,
-                                distortion: float = 0.0) -> HexInternalForce | None:
+                                plastic_floor: float = 0.3, distortion: float = 0.0,
+                                adaptive_strain: float = 0.01
+                                ) -> HexInternalForce | AdaptiveHexForce | None:
         """Element loops for the explicit solver on hexahedra; None: use the forms.
 
         ``integration`` applies to P1 hexahedra; P2 ones (the meso-scale walls) are
@@ -249,8 +251,15 @@ class SolidBody(BodyBase):
         """
         if self.mesh.topology.cell_name() != "hexahedron" or self.spec.degree not in (1, 2):
             return None
-        if self.spec.degree == 2 or (integration == "thickness" and self.damaging):
+        if self.spec.degree == 2 or (integration in ("thickness", "adaptive")
+                                     and self.damaging):
             integration = "full"
+        if integration == "adaptive":
+            if not self.material.kernel_data().plastic:  # nothing ever crushes
+                return HexInternalForce(self, "thickness", hourglass, density,
+                                        plastic_floor, distortion)
+            return AdaptiveHexForce(self, "thickness", hourglass, density, plastic_floor,
+                                    distortion, adaptive_strain)
         return HexInternalForce(self, integration, hourglass, density, plastic_floor,
                                 distortion)
 

@@ -32,7 +32,7 @@ from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
 from forming import compat, signals  # noqa: F401
-from forming.bodies.hexforce import distortion_energy, loop_timing, smallest_corner_det
+from forming.bodies.hexforce import loop_metrics, loop_timing, smallest_corner_det
 from forming.contact.selfcontact import SelfContactTerm
 from forming.errors import InputError, KernelFailure
 from forming.model import Model
@@ -88,7 +88,7 @@ class ExplicitSolver:
         # internal forces: element loops where the body has them, else its form
         self._loops = {st.name: st.body.explicit_internal_force(
             opts.integration, opts.hourglass, body_density(st.body), opts.hourglass_plastic,
-            opts.distortion_control) for st in self.states}
+            opts.distortion_control, opts.adaptive_strain) for st in self.states}
         self._loop_list = [loop for loop in self._loops.values() if loop is not None]
         self._internal = {n: fem.form(b.residual(tests[n]), entity_maps=emaps)
                           for n, b in model.bodies.items() if self._loops[n] is None}
@@ -455,7 +455,7 @@ class ExplicitSolver:
         return {"kinetic_to_internal_max": led.ke_ie_max,
                 "quasi_static": led.ke_ie_max <= self.options.quasi_static_limit,
                 "hourglass_energy_fraction": led.hg_ie_max,
-                "distortion_energy_Nmm": distortion_energy(self._loop_list, self.comm),
+                **loop_metrics(self._loop_list, self.comm),
                 "mass_added_fraction": self.mass_added_fraction,
                 "energy_balance_error_rel": led.balance_error(),
                 } | ({"self_contact_penetration_max_mm": max(sc.deepest for sc in selves)}

@@ -299,7 +299,10 @@ class ExplicitOptions:
             implicit answers, docs/validation.md) or ``"thickness"`` (one point in plane,
             two through the thickness, as an in-plane reduced solid-shell; the
             hourglass control takes the two modes they miss: the gradient of crushing
-            and bending through the core is kept). Fabric skins use their forms.
+            and bending through the core is kept) or ``"adaptive"`` (thickness
+            integration where the core does not crush unevenly, full integration for
+            good in each element that does: ``adaptive_strain``;
+            :mod:`forming.bodies.hexadaptive`). Fabric skins use their forms.
         hourglass: Hourglass stiffness coefficient kappa of reduced integration
             (``k = kappa M V |b|^2 / 3`` per element, docs/theory.md section 12).
         hourglass_plastic: Smallest fraction of its elastic hourglass stiffness a
@@ -312,6 +315,10 @@ class ExplicitOptions:
             Abaqus/Explicit's distortion control (docs/theory.md section 12); its energy
             counts with the hourglass energy. 0.1 by default; 0: off. Fully integrated
             elements have none.
+        adaptive_strain: Adaptive integration: an element moves to full integration when
+            its most compressed corner has lost more than this share of its volume and
+            its corners' volume ratios differ by more than it (docs/theory.md,
+            section 12).
     """
 
     loading_time: float = 0.05
@@ -326,16 +333,20 @@ class ExplicitOptions:
     output_interval: float | None = None
     bound_every: float = 0.1
     quasi_static_limit: float = 0.05
-    integration: Literal["full", "reduced", "thickness"] = "full"
+    integration: Literal["full", "reduced", "thickness", "adaptive"] = "full"
     hourglass: float = 0.1
     hourglass_plastic: float = 0.3
     hourglass_limit: float = 0.05
     distortion_control: float = 0.1
+    adaptive_strain: float = 0.005
 
     def __post_init__(self) -> None:
-        if self.integration not in ("reduced", "full", "thickness"):
-            raise InputError("explicit.integration", "must be 'full', 'reduced' or "
-                             f"'thickness', got {self.integration!r}")
+        if self.integration not in ("reduced", "full", "thickness", "adaptive"):
+            raise InputError("explicit.integration", "must be 'full', 'reduced', "
+                             f"'thickness' or 'adaptive', got {self.integration!r}")
+        if not 0.0 < self.adaptive_strain < 1.0:
+            raise InputError("explicit.adaptive_strain",
+                             f"must lie in (0, 1), got {self.adaptive_strain!r}")
         if not (math.isfinite(self.hourglass) and self.hourglass >= 0):
             raise InputError("explicit.hourglass", f"must be >= 0, got {self.hourglass!r}")
         if not 0.0 <= self.hourglass_plastic <= 1.0:
