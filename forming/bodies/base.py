@@ -114,7 +114,7 @@ class DeformableBody(Protocol):
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
                                 plastic_floor: float = 0.3, distortion: float = 0.0,
-                                adaptive_strain: float = 0.01):
+                                adaptive_strain: float = 0.005):
         """Element loops for the explicit solver, or None to use the form.
 
         The loops are a :class:`~forming.bodies.hexforce.HexInternalForce` or, for
@@ -202,7 +202,7 @@ class BodyBase:
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
                                 plastic_floor: float = 0.3, distortion: float = 0.0,
-                                adaptive_strain: float = 0.01):
+                                adaptive_strain: float = 0.005):
         """None: the explicit solver assembles this body's internal forces from its form."""
         del integration, hourglass, density, plastic_floor, distortion, adaptive_strain
 

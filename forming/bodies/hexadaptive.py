@@ -64,7 +64,7 @@ class AdaptiveHexForce:
     reduced = True  # hourglass-controlled elements (the folded-corner check applies)
 
     def __init__(self, body, base: str, hourglass: float, density: float,
-                 plastic_floor: float = 0.3, distortion: float = 0.0, strain: float = 0.01,
+                 plastic_floor: float = 0.3, distortion: float = 0.0, strain: float = 0.005,
                  check_every: int = 10):
         if base not in ("reduced", "thickness"):
             raise InputError("explicit.integration", f"adaptive base must be 'reduced' or "

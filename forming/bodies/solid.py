@@ -242,7 +242,7 @@ class SolidBody(BodyBase):
 
     def explicit_internal_force(self, integration: str, hourglass: float, density: float,
                                 plastic_floor: float = 0.3, distortion: float = 0.0,
-                                adaptive_strain: float = 0.01
+                                adaptive_strain: float = 0.005
                                 ) -> HexInternalForce | AdaptiveHexForce | None:
         """Element loops for the explicit solver on hexahedra; None: use the forms.
 
