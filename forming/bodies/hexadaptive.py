@@ -199,11 +199,14 @@ class AdaptiveHexForce:
         self._base.pull()
         self._full.pull()
 
-    def state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per owned element: hourglass state (24), its energy, and 1 where fully integrated.
+    def state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per owned element: hourglass state, energy, fully integrated?, check count.
 
-        The retired hourglass work is spread over the fully integrated elements' energy
-        entries, so that the sum survives a restart on another number of ranks.
+        The hourglass state has 24 values per element, "fully integrated" is 1 or 0, and
+        the increments since the last check are the same in every row. The retired
+        hourglass work is spread over the fully integrated elements' energy entries, so
+        that the sum survives a restart on another number of ranks; the count keeps the
+        checks on the same increments as an uninterrupted run's.
         """
         hg = np.zeros((self.n_cells, 24))
         energy = np.zeros(self.n_cells)
@@ -211,13 +214,15 @@ class AdaptiveHexForce:
         hg[self._cells[0]], energy[self._cells[0]] = base_hg, base_energy
         if self._cells[1].size:
             energy[self._cells[1]] = self._retired / self._cells[1].size
-        return hg, energy, self.full.astype(float)
+        return hg, energy, self.full.astype(float), np.full(self.n_cells, float(self._since))
 
-    def set_state(self, state: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
-        """Return the loops and their hourglass state to :meth:`state`'s."""
-        hg, energy, full = state
+    def set_state(self, state: tuple[np.ndarray, ...]) -> None:
+        """Return the loops, their hourglass state and the check count to :meth:`state`'s."""
+        hg, energy, full, since = state
         self.full = np.asarray(full) > 0.5
         self._retired = float(energy[self.full].sum())
+        # (every row holds the count; a rank may own no element after a repartition)
+        self._since = int(round(float(np.max(since)))) if len(since) else 0
         self._build()
         base = self._cells[0]
         self._base.set_state((hg[base], energy[base]))
@@ -226,4 +231,4 @@ class AdaptiveHexForce:
         """Where :meth:`state`'s arrays live (one row per owned cell)."""
         dom = self.body.domain
         return (dom.point_layout(1, 24), dom.point_layout(1, None),
-                dom.point_layout(1, None))
+                dom.point_layout(1, None), dom.point_layout(1, None))
