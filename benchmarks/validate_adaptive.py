@@ -20,14 +20,14 @@ import sys
 from pathlib import Path
 
 from _report import REPO, machine, run_case_process, update_section
-from validate_reduced import SCENES, _compare
+from validate_reduced import SCENES, compare_runs
 
 INTEGRATIONS = ("full", "adaptive")
 
 
 def _row(name: str, integration: str, folder, case: str, sets: tuple[str, ...]) -> dict:
     s = json.loads((folder / "explicit" / "summary.json").read_text())
-    r = _compare(case, (*sets, f"explicit.integration={integration}"), folder)
+    r = compare_runs(case, (*sets, f"explicit.integration={integration}"), folder)
     m, cv = s["metrics"], r["metrics"].get("crushed_volume_mm3", {})
     return {"scene": name, "integration": integration, "status": s["status"],
             "force_rms": r["force_rms_diff_rel"], "peak": r["peak_force_diff_rel"],

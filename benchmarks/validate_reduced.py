@@ -36,7 +36,7 @@ KAPPAS = (0.01, 0.05, 0.1, 0.3)
 INTEGRATIONS = ("full", "reduced", "thickness")  # 0: the hourglass modes are free (singular)
 
 
-def _compare(case: str, sets: tuple[str, ...], out: Path) -> dict:
+def compare_runs(case: str, sets: tuple[str, ...], out: Path) -> dict:
     cmd = [str(Path(sys.executable).parent / "forming"), "compare", case, "--out", str(out),
            "--reuse"]
     for s in sets:
@@ -85,7 +85,7 @@ def main() -> None:
                                  sets=("solver=explicit", f"explicit.integration={integration}",
                                        *sets))
             s = json.loads(done.read_text())
-            r = _compare(case, sets, folder)
+            r = compare_runs(case, sets, folder)
             m = s["metrics"]
             rows.append({"scene": name, "integration": integration, "status": s["status"],
                          "force_rms": r["force_rms_diff_rel"],

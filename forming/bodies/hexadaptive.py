@@ -84,7 +84,6 @@ class AdaptiveHexForce:
         self._retired = 0.0  # hourglass work of the elements moved to the full loop [N mm]
         self._since = 0
         self.seconds = 0.0
-        self.switches = 0  # rebuilds of the two loops on this rank
         self._build()
 
     # -- the two loops ----------------------------------------------------------------------
@@ -96,9 +95,7 @@ class AdaptiveHexForce:
                                       distortion, cells=self._cells[0])
         self._full = HexInternalForce(self.body, "full", hourglass, density, floor,
                                       cells=self._cells[1])
-        x = self._base.reference_nodes
-        self._det0 = corner_dets(x)
-        self._x = x
+        self._det0 = corner_dets(self._base.reference_nodes)
 
     def move_to_full(self, cells: np.ndarray) -> None:
         """Integrate the elements ``cells`` (positions in the body's owned cells) fully.
@@ -116,7 +113,6 @@ class AdaptiveHexForce:
         self.full[self._cells[0][moving]] = True
         self._build()
         self._base.set_state((hg[~moving], energy[~moving]))
-        self.switches += 1
 
     def _check(self) -> None:
         """Move the base elements that have begun to crush."""
@@ -124,7 +120,7 @@ class AdaptiveHexForce:
         if base.n_cells == 0:
             return
         u = self.body.u.x.array.reshape(-1, 3)
-        ratio = corner_dets(self._x + u[base.nodes]) / self._det0
+        ratio = corner_dets(base.reference_nodes + u[base.nodes]) / self._det0
         low, high = ratio.min(axis=1), ratio.max(axis=1)
         newly = np.flatnonzero((low < 1.0 - self.strain) & (high - low > self.strain))
         if newly.size:
