@@ -134,3 +134,33 @@ def versions() -> dict[str, str]:
     except importlib.metadata.PackageNotFoundError:
         out["forming"] = "source tree"
     return out
+
+
+def expression(expr, points: np.ndarray) -> dolfinx.fem.Expression:
+    """A ``dolfinx.fem.Expression`` of ``expr`` at the reference ``points``, compiled once.
+
+    FFCx 0.11 names an expression's module by a signature in which coefficients,
+    constants and meshes are renumbered but the labels of ``ufl.variable`` are not: an
+    expression that differentiates with respect to a variable (a contact gap's normal)
+    got a new label, so a new module, every time a body was built, and the test suite
+    compiled one expression up to 34 times (docs/performance.md, "Expressions compiled
+    once"). The derivatives are applied and the variables replaced by what they stand for
+    first: the same code, one signature.
+    """
+    import ufl
+    from ufl.algorithms import expand_derivatives
+    from ufl.corealg.map_dag import map_expr_dag
+    from ufl.corealg.multifunction import MultiFunction
+
+    class _Strip(MultiFunction):
+        """Each variable replaced by its expression; shared nodes visited once."""
+
+        expr = MultiFunction.reuse_if_untouched
+
+        def variable(self, o, expression, label):
+            return expression
+
+    nodes = ufl.corealg.traversal.unique_pre_traversal(expr)
+    if any(isinstance(o, ufl.classes.Variable) for o in nodes):
+        expr = map_expr_dag(_Strip(), expand_derivatives(expr))
+    return dolfinx.fem.Expression(expr, points)

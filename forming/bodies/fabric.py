@@ -74,13 +74,13 @@ class FabricBody(BodyBase):
                                fem.form(fem.Constant(msh, 1.0) * dx0))
         gamma = mat.shear_angle(F)
         pts = W.element.interpolation_points
-        self._gamma_expr = fem.Expression(gamma * 180.0 / np.pi, pts)
-        self._wrinkle_expr = fem.Expression(mat.wrinkling_indicator(gamma), pts)
+        self._gamma_expr = compat.expression(gamma * 180.0 / np.pi, pts)
+        self._wrinkle_expr = compat.expression(mat.wrinkling_indicator(gamma), pts)
         # det F where the matrix energy takes its logarithm: the full rule's points
         full, _weights = basix.make_quadrature(msh.basix_cell(), FULL_DEGREE)
-        self._detF_expr = fem.Expression(ufl.det(F), full)
+        self._detF_expr = compat.expression(ufl.det(F), full)
         lam1, lam2 = mat.fibre_stretches(F)
-        self._fibre_expr = fem.Expression(ufl.min_value(lam1, lam2) - 1.0, pts)
+        self._fibre_expr = compat.expression(ufl.min_value(lam1, lam2) - 1.0, pts)
 
     def residual(self, v) -> ufl.Form:
         """Internal virtual work: the first variation of the strain energy."""

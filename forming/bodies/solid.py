@@ -94,7 +94,7 @@ class SolidBody(BodyBase):
         self.own_dx = domain.own_dx(q)  # post-processing: on the body's mesh
         F = self.deformation_gradient()
         C = F.T * F
-        self._C_expr = fem.Expression(
+        self._C_expr = compat.expression(
             ufl.as_vector([C[i, j] for i in range(3) for j in range(3)] + [ufl.det(F)]),
             self.QS.element.interpolation_points,
         )
@@ -126,7 +126,7 @@ class SolidBody(BodyBase):
     def _band_geometry(self) -> tuple[np.ndarray, int]:
         """Inverse Jacobians at the owned cells' centres and points per cell (crack bands)."""
         centre = np.full((1, 3), 0.5)
-        jac = fem.Expression(ufl.Jacobian(self.mesh), centre)
+        jac = compat.expression(ufl.Jacobian(self.mesh), centre)
         j = jac.eval(self.mesh, self.point_cells).reshape(-1, 3, 3)
         ginv = np.linalg.inv(j).reshape(-1, 9) if j.size else np.zeros((0, 9))
         return np.ascontiguousarray(ginv), self.QS.dofmap.list.shape[1]

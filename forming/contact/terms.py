@@ -16,6 +16,7 @@ import ufl
 from dolfinx import fem, mesh  # noqa: I001
 from mpi4py import MPI
 
+from forming import compat
 from forming.contact.base import default_penalty
 from forming.contact.exposed import ExposedSurface
 from forming.contact.laws import coulomb_return, normal_pressure, tangent_projector
@@ -125,12 +126,12 @@ class ContactTerm:
         self._dofs = fem.locate_dofs_topological(W, 2, facets)
         self._owned = self._dofs[self._dofs < W.dofmap.index_map.size_local]
         pts = W.element.interpolation_points
-        self._gap_expr = fem.Expression(gap_own, pts)
-        self._p_expr = fem.Expression(pressure_own, pts)
+        self._gap_expr = compat.expression(gap_own, pts)
+        self._p_expr = compat.expression(pressure_own, pts)
         self._gap = fem.Function(W)
         self._p_new = fem.Function(W)
         if self.lam_t is not None:
-            self._t_expr = fem.Expression(shear_own, Wv.element.interpolation_points)
+            self._t_expr = compat.expression(shear_own, Wv.element.interpolation_points)
             self._t_new = fem.Function(Wv)
         form = body.domain.form
         self._force_forms = [form(-self.traction[i] * self._ds) for i in range(3)]

@@ -6,10 +6,9 @@ from pathlib import Path
 
 import numpy as np
 import ufl
-from dolfinx import fem  # noqa: I001
 from mpi4py import MPI
 
-from forming import compat  # noqa: F401  (imports dolfinx the right way)
+from forming import compat
 from forming.post.pictures import deformed_grid
 
 
@@ -23,7 +22,7 @@ def wall_strain_extremes(body) -> tuple[float, float]:
     F = body.deformation_gradient()
     E = 0.5 * (F.T * F - ufl.Identity(3))
     points = body.QS.element.interpolation_points
-    values = fem.Expression(ufl.as_vector([E[i, j] for i in range(3) for j in range(3)]),
+    values = compat.expression(ufl.as_vector([E[i, j] for i in range(3) for j in range(3)]),
                             points).eval(body.mesh, body.point_cells)
     values = values.reshape(-1, 3, 3)[body.active_points()]
     eig = np.linalg.eigvalsh(values) if values.size else np.zeros((1, 3))
