@@ -23,7 +23,7 @@ def wall_strain_extremes(body) -> tuple[float, float]:
     E = 0.5 * (F.T * F - ufl.Identity(3))
     points = body.QS.element.interpolation_points
     values = compat.expression(ufl.as_vector([E[i, j] for i in range(3) for j in range(3)]),
-                            points).eval(body.mesh, body.point_cells)
+                               points).eval(body.mesh, body.point_cells)
     values = values.reshape(-1, 3, 3)[body.active_points()]
     eig = np.linalg.eigvalsh(values) if values.size else np.zeros((1, 3))
     comm = body.mesh.comm
