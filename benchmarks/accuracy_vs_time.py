@@ -20,8 +20,8 @@ docs/performance.md, which states which solver reaches 1% and 5% error sooner.
 
 Each series is a ``forming study`` in ``--work`` (``results/accuracy_vs_time``), one run at a
 time on one rank; a rerun reuses the finished runs (delete the folder to time afresh).
-Run alone (wall times): ``python benchmarks/accuracy_vs_time.py`` (about 15 minutes on one
-core; ``--quick`` for a 6 x 6 x 2 mesh and fewer points).
+Run alone (wall times): ``python benchmarks/accuracy_vs_time.py`` (21.6 minutes on one
+core of an Intel Xeon, 2026-12-03; ``--quick`` for a 6 x 6 x 2 mesh and fewer points).
 """
 
 from __future__ import annotations
@@ -120,9 +120,9 @@ def _chart(rows: list[dict], path: Path, title: str) -> None:
     ax.set_ylabel("punch force error (RMS / peak) vs reference")
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8, loc="lower right")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3)
     fig.tight_layout()
-    fig.savefig(path)
+    fig.savefig(path, bbox_inches="tight")
     plt.close(fig)
 
 
