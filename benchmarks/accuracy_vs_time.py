@@ -78,8 +78,12 @@ def _verdict(rows: list[dict], tol: float, crushed: bool = False) -> str:
         win = "implicit" if imp["wall_s"] < exp["wall_s"] else "explicit"
         ratio = max(imp["wall_s"], exp["wall_s"]) / min(imp["wall_s"], exp["wall_s"])
         lose = "explicit" if win == "implicit" else "implicit"
-        verdict = (f"**{win}** is cheaper, by {ratio:.1f}x: the {lose} solver would need its "
-                   f"cheapest run that reaches it {ratio:.1f} times faster to win")
+        if ratio < 1.1:  # single-run wall times do not separate closer than this
+            verdict = (f"a **tie** ({ratio:.2f}x, closer than the 10% that single "
+                       f"timed runs resolve)")
+        else:
+            verdict = (f"**{win}** is cheaper, by {ratio:.1f}x: the {lose} solver would need "
+                       f"its cheapest run that reaches it {ratio:.1f} times faster to win")
     elif imp or exp:
         verdict = f"**{'implicit' if imp else 'explicit'}** is the only one to reach it"
     else:
