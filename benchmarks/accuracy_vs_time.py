@@ -78,9 +78,9 @@ def _verdict(rows: list[dict], tol: float, crushed: bool = False) -> str:
         win = "implicit" if imp["wall_s"] < exp["wall_s"] else "explicit"
         ratio = max(imp["wall_s"], exp["wall_s"]) / min(imp["wall_s"], exp["wall_s"])
         lose = "explicit" if win == "implicit" else "implicit"
-        if ratio < 1.1:  # single-run wall times do not separate closer than this
-            verdict = (f"a **tie** ({ratio:.2f}x, closer than the 10% that single "
-                       f"timed runs resolve)")
+        if ratio < 1.1:  # a chosen margin: each point is one timed run, not a mean
+            verdict = (f"a **tie** ({ratio:.2f}x, inside the 10% margin this study "
+                       f"sets for one timed run per point)")
         else:
             verdict = (f"**{win}** is cheaper, by {ratio:.1f}x: the {lose} solver would need "
                        f"its cheapest run that reaches it {ratio:.1f} times faster to win")
