@@ -51,21 +51,49 @@ class Closest(NamedTuple):
     rotation: np.ndarray
 
 
+# np.unique is not used on these arrays: with ``axis=0`` it sorts rows as structured
+# records, and numpy 2.5 hashes 1-D integers before it sorts them; the sorts below give
+# the same arrays about ten times faster (a 105,218-facet tool: its edges 0.53 -> 0.05 s,
+# its one-rings 2.2 -> 0.19 s, measured 2026-12-03).
+def _firsts(ordered: np.ndarray) -> np.ndarray:
+    """Where each run of equal rows (or values) of a sorted array starts."""
+    new = np.empty(len(ordered), dtype=bool)
+    new[:1] = True
+    differs = ordered[1:] != ordered[:-1]
+    new[1:] = differs.any(axis=1) if differs.ndim == 2 else differs
+    return new
+
+
 def _merge(vertices: np.ndarray, faces: np.ndarray, tol: float):
-    """Merge coincident vertices (an STL stores each triangle's own three)."""
+    """Merge coincident vertices (an STL stores each triangle's own three).
+
+    The merged vertices are ordered by their rounded coordinates (x, then y, then z),
+    each represented by its first occurrence.
+    """
     keys = np.round(vertices / tol).astype(np.int64)
-    _u, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    return vertices[first], inverse.reshape(-1)[faces]
+    order = np.lexsort(keys.T[::-1])  # stable: equal keys keep their input order
+    new = _firsts(keys[order])
+    inverse = np.empty(len(keys), dtype=np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    return vertices[order[new]], inverse[faces]
 
 
 def _edges(faces: np.ndarray):
-    """Directed edges ``k`` of each face (``F[f, k] -> F[f, k+1]``) and undirected ids."""
+    """Directed edges ``k`` of each face (``F[f, k] -> F[f, k+1]``) and undirected ids.
+
+    Undirected edges are numbered in the order of their (lower, higher) vertex pairs;
+    ``counts`` is the number of face edges on each.
+    """
     a = faces.reshape(-1)
     b = faces[:, [1, 2, 0]].reshape(-1)
     lo, hi = np.minimum(a, b), np.maximum(a, b)
-    _u, edge, counts = np.unique(np.stack([lo, hi], axis=1), axis=0, return_inverse=True,
-                                 return_counts=True)
-    return a, b, edge.reshape(-1), counts
+    key = lo.astype(np.int64) * (int(faces.max()) + 1) + hi
+    order = np.argsort(key, kind="stable")
+    new = _firsts(key[order])
+    edge = np.empty(len(key), dtype=np.int64)
+    edge[order] = np.cumsum(new) - 1
+    counts = np.diff(np.append(np.flatnonzero(new), len(key)))
+    return a, b, edge, counts
 
 
 def _check(name: str, vertices, faces, sheet: bool):
@@ -168,7 +196,8 @@ def _one_rings(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rows.append((np.repeat(np.arange(m), lengths), vf_f[idx]))
     owner = np.concatenate([r[0] for r in rows])
     other = np.concatenate([r[1] for r in rows])
-    pairs = np.unique(owner * m + other)
+    pairs = np.sort(owner * m + other)
+    pairs = pairs[_firsts(pairs)]
     owner, other = pairs // m, pairs % m
     ptr = np.searchsorted(owner, np.arange(m + 1))
     return ptr.astype(np.int64), other.astype(np.int64)
