@@ -195,7 +195,8 @@ def test_drape_of_the_sandwich_starts_at_the_punch_tip():
 
 def test_forming_drape_hemisphere_writes_map_fields_and_summary(tmp_path):
     """forming drape hemisphere: exit 0, drape.json (settings, shear range, wrinkling area
-    fraction, node count, wall time under 10 s), shear_angle.png, drape.vtu (quads with
+    fraction, node count, its wall time: recorded, not timed here; its speed is
+    benchmarks/validate_drape.py's), shear_angle.png, drape.vtu (quads with
     the cell shear) and drape.npz (the net's arrays) in --out; the net is centred on the
     punch's tip (the origin cell's centre) and covers the punch up to its equator (the
     blank cannot reach the shank), with shear of both signs, antisymmetric to 1e-6 deg.
@@ -211,7 +212,7 @@ def test_forming_drape_hemisphere_writes_map_fields_and_summary(tmp_path):
     assert rec["net_centre_mm"] == pytest.approx([0.0, 0.0, -30.0], abs=1e-9)  # the tip
     start = np.array(rec["settings"]["start"])
     assert np.linalg.norm(start[:2]) == pytest.approx(rec["settings"]["spacing"] / 2**0.5, rel=0.01)
-    assert rec["wall_s"] < 10 and 0 < rec["nodes_placed"] < rec["nodes_total"]
+    assert rec["wall_s"] > 0 and 0 < rec["nodes_placed"] < rec["nodes_total"]
     assert rec["shear_max_deg"] > 30
     assert rec["shear_min_deg"] == pytest.approx(-rec["shear_max_deg"], abs=1e-6)
     assert 0 <= rec["area_fraction_beyond_limits"] < 0.1
