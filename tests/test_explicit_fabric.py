@@ -175,7 +175,7 @@ def test_explicit_large_slip_sled_keeps_most_of_its_friction(tmp_path):
 
 def test_explicit_small_sliding_sled_holds_the_friction_coefficient(tmp_path):
     """The skin sled with the small-sliding interface (weight on over the first 20% of
-    the load, then 0.5 mm of drag, 0.02 s): while the skin slides, drag over the
+    the load, then 0.5 mm of drag, 0.01 s): while the skin slides, drag over the
     interface's normal force averages mu = 0.52 (implicit: 0.520 at every step). Before
     the interface's friction history was the elastic slip it was the traction: a node
     whose pressure dipped kept the lower traction and rebuilt it only by the stick
@@ -184,9 +184,11 @@ def test_explicit_small_sliding_sled_holds_the_friction_coefficient(tmp_path):
     balance was off by 25%. Asserted: the mean ratio over the second half of the drag
     within 5% of 0.52, every row's normal force within 5% of the 5 N weight, the energy
     balance within 1e-4. A failure means the explicit friction of the small-sliding
-    interface lost its history again, or its normal approach rings.
+    interface lost its history again, or its normal approach rings. (Measured
+    2026-12-03: the ratio 0.3% below 0.52, the normal force within 0.008 N of 5 N, the
+    balance 1.1e-5; at 0.02 s, 0.5%, 0.003 N and 2e-6, in about 1.5 times the time.)
     """
-    sets = ["solver=explicit", "drag=0.5", "explicit.loading_time=0.02"]
+    sets = ["solver=explicit", "drag=0.5", "explicit.loading_time=0.01"]
     s = run_case("skin_sled", tmp_path, sets)
     assert s["status"] == "completed", s["reason"]
     h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
