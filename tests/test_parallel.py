@@ -125,7 +125,7 @@ out = Path(sys.argv[1])
 (out.parent / f"{out.name}.lower_cells.{MPI.COMM_WORLD.rank}").write_text(str(int(owned.sum())))
 job = Job(scene=scene, steps=StepControl(initial=0.1, max=0.1), solver="explicit",
           explicit=ExplicitOptions(loading_time=0.01))
-simulate(job, Path(sys.argv[1]), "empty_rank", {})
+simulate(job, out, "empty_rank", {})
 """
 
 

@@ -64,6 +64,14 @@ def _firsts(ordered: np.ndarray) -> np.ndarray:
     return new
 
 
+def _groups(keys: np.ndarray, order: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Run starts of ``keys[order]`` (sorted) and each key's group, numbered in that order."""
+    new = _firsts(keys[order])
+    group = np.empty(len(keys), dtype=np.int64)
+    group[order] = np.cumsum(new) - 1
+    return new, group
+
+
 def _merge(vertices: np.ndarray, faces: np.ndarray, tol: float):
     """Merge coincident vertices (an STL stores each triangle's own three).
 
@@ -72,9 +80,7 @@ def _merge(vertices: np.ndarray, faces: np.ndarray, tol: float):
     """
     keys = np.round(vertices / tol).astype(np.int64)
     order = np.lexsort(keys.T[::-1])  # stable: equal keys keep their input order
-    new = _firsts(keys[order])
-    inverse = np.empty(len(keys), dtype=np.int64)
-    inverse[order] = np.cumsum(new) - 1
+    new, inverse = _groups(keys, order)
     return vertices[order[new]], inverse[faces]
 
 
@@ -88,12 +94,8 @@ def _edges(faces: np.ndarray):
     b = faces[:, [1, 2, 0]].reshape(-1)
     lo, hi = np.minimum(a, b), np.maximum(a, b)
     key = lo.astype(np.int64) * (int(faces.max()) + 1) + hi
-    order = np.argsort(key, kind="stable")
-    new = _firsts(key[order])
-    edge = np.empty(len(key), dtype=np.int64)
-    edge[order] = np.cumsum(new) - 1
-    counts = np.diff(np.append(np.flatnonzero(new), len(key)))
-    return a, b, edge, counts
+    _new, edge = _groups(key, np.argsort(key, kind="stable"))
+    return a, b, edge, np.bincount(edge)
 
 
 def _check(name: str, vertices, faces, sheet: bool):
