@@ -16,6 +16,17 @@ from mpi4py import MPI
 _LINE = {"text": ""}  # the progress line currently shown (rank 0, terminal only)
 
 
+def collective_warning(logger: logging.Logger, msg: str, *args) -> None:
+    """Log a warning that every rank reaches with the same text, once: on rank 0.
+
+    Other ranks keep logging their own warnings (:func:`setup`); this is for those of a
+    collective decision (a step cut back, a run's closing cautions), which would
+    otherwise be printed once per rank.
+    """
+    if MPI.COMM_WORLD.rank == 0:
+        logger.warning(msg, *args)
+
+
 class _AboveProgress(logging.StreamHandler):
     """A stream handler that prints above the progress line and redraws it."""
 

@@ -23,6 +23,7 @@ from forming.contact.base import Constraint
 from forming.domain import BodyDomain
 from forming.history import ForceSampler, reaction_column, reaction_key
 from forming.layout import Layout
+from forming.log import collective_warning
 from forming.mesh import bounding_box
 from forming.scene import AffineDisplacement, Displacement, Scene
 
@@ -206,9 +207,9 @@ class Model:
                 # locks the quadratic body: docs/theory.md section 11)
                 degree = min(first.spec.degree, second.spec.degree)
                 if first.spec.degree != second.spec.degree:
-                    log.warning("interface %s: a quadratic body on a linear one is tied at "
-                                "the linear faces' corners only (docs/theory.md section 11)",
-                                itf.region)
+                    collective_warning(log, "interface %s: a quadratic body on a linear one is "
+                                       "tied at the linear faces' corners only "
+                                       "(docs/theory.md section 11)", itf.region)
                 self.interfaces.append(InterfaceTerm(
                     itf, first, second, dS(i + 1, metadata=nodal_rule(degree)),
                     min(thickness[itf.body], thickness[itf.other]), degree))

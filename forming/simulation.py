@@ -35,7 +35,7 @@ from forming import restart as disk
 from forming.errors import InputError
 from forming.history import STROKE, force_column, merge, reaction_column, whole_part
 from forming.job import Job
-from forming.log import Progress
+from forming.log import Progress, collective_warning
 from forming.model import Model
 from forming.output import FieldOutput, Recorder, write_final_shape
 from forming.parallel import peak_rss_mb
@@ -219,8 +219,9 @@ class Simulation:
         if not solver.retries_on_failure or res.final:
             return self._fail(f"at {self.progress.where(t_old)} (load parameter {t_old:.6g}):"
                               f" {res.reason}", res)
-        log.warning("step to %s (t=%.5f) failed after %d %s: %s; cutting back",
-                    self.progress.where(t_new), t_new, res.work, solver.work_name, res.reason)
+        collective_warning(log, "step to %s (t=%.5f) failed after %d %s: %s; cutting back",
+                           self.progress.where(t_new), t_new, res.work, solver.work_name,
+                           res.reason)
         try:
             stepper.reject()
         except StepTooSmall as exc:
@@ -230,8 +231,8 @@ class Simulation:
                 return self._fail(f"{exc} ({self.progress.where(stepper.t)}); last failure: "
                                   f"{res.reason}{held}", res)
             stepper.resume(stepper.last_dt or stepper.control.initial)
-            log.warning("%s: stabilising springs stiffened to %g times their setting; "
-                        "retrying", exc, spring)
+            collective_warning(log, "%s: stabilising springs stiffened to %g times their "
+                               "setting; retrying", exc, spring)
         return res
 
     def _interrupt(self, signum: int, res: StepResult) -> StepResult:
@@ -241,7 +242,7 @@ class Simulation:
         self.reason = (f"interrupted by {self.signal} at {self.progress.where(self.t)} "
                        f"(load parameter {self.t:.6g})")
         self.model.set_load(self.stepper.t)
-        log.warning("run stopped: %s", self.reason)
+        collective_warning(log, "run stopped: %s", self.reason)
         self.save_checkpoint(f"interrupted by {self.signal}")  # --restart goes on from here
         return res
 
@@ -438,7 +439,7 @@ class Simulation:
         warnings = (list(job.cautions) + model.warnings() + self.solver.warnings()
                     + self.springs.warnings(self.progress.where))
         for w in warnings:
-            log.warning("%s", w)
+            collective_warning(log, "%s", w)
         validity = self.solver.validity() | {
             f"{name} <= {bound:g}": metrics.get(name) is not None and metrics[name] <= bound
             for name, bound in job.limits}

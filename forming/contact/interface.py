@@ -38,6 +38,7 @@ from forming.contact.laws import (
 from forming.contact.terms import surface_edge_min
 from forming.errors import InputError
 from forming.history import ForceSampler, interface_columns
+from forming.log import collective_warning
 from forming.scene import Interface
 
 log = logging.getLogger(__name__)
@@ -467,7 +468,7 @@ class InterfaceTerm:
                    f"{self.spec.slip_warning:.2g} x the facet edge ({self.edge:.3g} mm); the "
                    f"small-sliding pairing loses accuracy from here")
             self._warned.append(msg)
-            log.warning("%s", msg)
+            collective_warning(log, "%s", msg)
         return row
 
     def warnings(self) -> list[str]:

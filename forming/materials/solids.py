@@ -15,6 +15,7 @@ from typing import Literal, NamedTuple, Protocol
 import numpy as np
 
 from forming.errors import InputError
+from forming.log import collective_warning
 from forming.materials import kernels
 from forming.materials.curves import CompressionCurve, pchip_slopes
 from forming.materials.elasticity import Elasticity
@@ -343,7 +344,8 @@ class CrushableFoam:
         if not (math.isfinite(self.viscosity) and self.viscosity >= 0.0):
             raise InputError("material.viscosity", f"must be >= 0, got {self.viscosity!r}")
         if abs(self.elasticity.lateral_poisson) > 1e-12:
-            log.warning(
+            collective_warning(
+                log,
                 "crushable foam: the curve conversion assumes no lateral strain in the "
                 "uniaxial test; elastic lateral Poisson ratio %g makes it approximate",
                 self.elasticity.lateral_poisson,

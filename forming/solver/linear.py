@@ -23,6 +23,7 @@ import numpy as np
 from dolfinx import fem
 from petsc4py import PETSc
 
+from forming.log import collective_warning
 from forming.solver.options import NewtonOptions
 
 log = logging.getLogger(__name__)
@@ -142,9 +143,9 @@ class RefinedLU:
                 self.exact_only = True
                 self._approx.destroy()  # its factors' memory
                 self._approx = None
-                log.warning("linear solve: %d of %d solves on the approximate LU needed the "
-                            "exact one; the rest of the run factorises exactly",
-                            self.fallbacks, self.solves)
+                collective_warning(log, "linear solve: %d of %d solves on the approximate LU "
+                                   "needed the exact one; the rest of the run factorises "
+                                   "exactly", self.fallbacks, self.solves)
             elif not self.exact_only:
                 # the approximate factors are of this matrix alone (the next Jacobian is
                 # factorised anew): freed before the exact ones are made, so that the two
