@@ -91,7 +91,11 @@ ensure_venv() {
     rm -f "$stamp"
     # uv installs the locked wheels in about 6 s where pip takes about 60 (measured
     # 2026-12-03, the same 56 packages); pip stays the fallback where uv cannot be had.
-    local installer=(uv pip install --python "$venv/bin/python")
+    # --compile-bytecode: pip writes the .pyc files at install and uv does not; without
+    # them a process that may not write them (PYTHONDONTWRITEBYTECODE, as on this
+    # machine) compiles dolfinx, numba, matplotlib... from source at every start: 4.4 s
+    # instead of 1.6 to import them, in every MPI rank, test worker and study run.
+    local installer=(uv pip install --compile-bytecode --python "$venv/bin/python")
     if ! "$venv/bin/python" -m pip install -q "uv==$uv_version" >/dev/null 2>&1; then
         echo "dev.sh: uv $uv_version not installable; installing with pip" >&2
         installer=(python -m pip install)
@@ -117,6 +121,11 @@ case "$cmd" in
 esac
 
 ensure_venv
+# The package's own bytecode, written even where PYTHONDONTWRITEBYTECODE is set (as on
+# this machine): importing it from source costs every process about 0.5 s (2.1 s
+# against 1.6 s with the libraries), and a suite starts hundreds. Changed files only.
+"$venv/bin/python" -m compileall -q -j 0 "$repo/forming" >/dev/null \
+    || die "compiling the package's bytecode failed"
 
 export NUMBA_CACHE_DIR="$repo/.cache/numba"
 mkdir -p "$NUMBA_CACHE_DIR"
