@@ -89,12 +89,13 @@ ensure_venv() {
 
     echo "dev.sh: installing dependencies into $venv (requirements.lock changed or first run)" >&2
     rm -f "$stamp"
-    # uv installs the locked wheels in about 6 s where pip takes about 60 (measured
-    # 2026-12-03, the same 56 packages); pip stays the fallback where uv cannot be had.
-    # --compile-bytecode: pip writes the .pyc files at install and uv does not; without
-    # them a process that may not write them (PYTHONDONTWRITEBYTECODE, as on this
-    # machine) compiles dolfinx, numba, matplotlib... from source at every start: 4.4 s
-    # instead of 1.6 to import them, in every MPI rank, test worker and study run.
+    # uv sets the venv up in about 22 s where pip takes about 73 (`echo exit | bash
+    # scripts/dev.sh shell` in a fresh clone, 2026-12-03, the same 56 packages); pip stays
+    # the fallback where uv cannot be had. --compile-bytecode: pip writes the .pyc files
+    # at install and uv does not; without them a process that may not write them
+    # (PYTHONDONTWRITEBYTECODE, as on this machine) compiles dolfinx, numba,
+    # matplotlib... from source at every start: 4.4 s instead of 1.6 to import them, in
+    # every MPI rank, test worker and study run (12 s without the bytecode).
     local installer=(uv pip install --compile-bytecode --python "$venv/bin/python")
     if ! "$venv/bin/python" -m pip install -q "uv==$uv_version" >/dev/null 2>&1; then
         echo "dev.sh: uv $uv_version not installable; installing with pip" >&2
