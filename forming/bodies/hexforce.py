@@ -245,6 +245,7 @@ class HexInternalForce:
                            if self.reduced and distortion > 0.0 else None)
         self.omega2 = 0.0  # the largest element frequency bound of the rank [1/s^2]
         self.seconds = 0.0  # wall time of the rank's element work (no scatters) [s]
+        self._u = body.u.x.array  # a view: the property builds a new one at every call
         self.pull()
 
     @property
@@ -265,10 +266,9 @@ class HexInternalForce:
                 this rank's forces left at zero.
         """
         t0 = time.perf_counter()
-        body = self.body
-        u = body.u.x.array
-        out.array[:] = 0.0
-        failure = self.add_local_forces(u, out.array)
+        arr = out.array
+        arr[:] = 0.0
+        failure = self.add_local_forces(self._u, arr)
         self.seconds += time.perf_counter() - t0
         out.scatter_reverse(la.InsertMode.add)
         out.scatter_forward()
@@ -302,7 +302,8 @@ class HexInternalForce:
         if self.reduced and self._curve is not None:
             tangent_ratio(self.ep, self.evp, self.ep_trial, self.evp_trial, *self._curve,
                           self.modulus, self.plastic_floor, self._phi_points)
-            self.phi[:] = self._phi_points.reshape(-1, self.per_cell).mean(axis=1)
+            self.phi[:] = (self._phi_points if self.per_cell == 1 else
+                           self._phi_points.reshape(-1, self.per_cell).mean(axis=1))
         self.omega2 = nodal_forces(u, self.nodes, self.grads, self.weights, self.fm,
                                    self.stress,
                                    self.gamma, self.k_hg, self.phi, self.hg,

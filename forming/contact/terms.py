@@ -104,6 +104,7 @@ class ContactTerm:
         W = fem.functionspace(msh, ("Lagrange", degree))
         self.lam_n = fem.Function(W, name=f"pressure_{tool.name}")
         self._offset = fem.Constant(parent, np.zeros(3))
+        self._offset_now = self._offset.value  # a view (the property costs ~2 us a call)
         self._eps = fem.Constant(parent, self.penalty)
         self.lam_t = None
         Wv = None
@@ -180,7 +181,7 @@ class ContactTerm:
     # -- load programme ----------------------------------------------------------------
     def set_load(self, t: float) -> None:
         """Move the tool to its position at load parameter ``t``."""
-        self._offset.value[:] = self.tool.offset(t)
+        self._offset_now[:] = self.tool.offset(t)
         if self._track is not None:  # a new load step: search the tree again
             self._track.repair()
 
@@ -191,7 +192,7 @@ class ContactTerm:
 
     def tool_offset(self) -> np.ndarray:
         """Current displacement of the tool from its initial position [mm]."""
-        return self._offset.value.copy()
+        return self._offset_now.copy()
 
     # -- augmentation ------------------------------------------------------------------
     def _reduce_max(self, values: np.ndarray) -> float:

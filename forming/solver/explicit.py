@@ -193,12 +193,12 @@ class ExplicitSolver:
                 self._failure = self._failure or f"point kernel failed: {exc}"
             if loop is None:  # (collective: after a failure too, with the last stresses)
                 assembled(self._internal[st.name], st.f_int)
-            st.f_all.x.array[:] = st.f_int.x.array
+            st.f_all_arr[:] = st.f_int_arr
         for outside in self._outside:
             outside.update()
         for term in self._terms:
             term.update()
-            term.state.f_all.x.array[:] += term.vec.x.array
+            term.state.f_all_arr[:] += term.vec.x.array
         if self._tools:
             for tool in self._tools:
                 tool.update(dt)
@@ -208,23 +208,22 @@ class ExplicitSolver:
 
     def _accelerate(self, st: BodyState) -> None:
         """Acceleration a = -R / m - alpha v, zero where the motion is prescribed."""
-        leapfrog.accelerate(st.f_all.x.array, st.m, st.v, self._alpha[st.name], st.fixed, st.a)
+        leapfrog.accelerate(st.f_all_arr, st.m, st.v, self._alpha[st.name], st.fixed, st.a)
 
     def _increment(self, dt: float) -> None:
         """Advance by ``dt``: velocity, displacement, load, forces, acceleration, history."""
         model = self.model
         for st, (u0, f0, r0, v0, _du) in zip(self.states, self._old, strict=True):
             # leapfrog: v(n+1/2) = v(n-1/2) + dt a(n); the first half step from rest
-            leapfrog.advance(st.body.u.x.array, st.v, st.a, st.f_int.x.array,
-                             st.f_all.x.array, u0, f0, r0, v0, st.n_owned,
-                             dt if self.time_steps else 0.5 * dt, dt)
+            leapfrog.advance(st.u_arr, st.v, st.a, st.f_int_arr, st.f_all_arr, u0, f0, r0,
+                             v0, st.n_owned, dt if self.time_steps else 0.5 * dt, dt)
         tool_old = [t.contact.tool_offset() for t in self._tools]
         self.tau += dt
         model.set_load(self.options.load(self.tau))
         for st, (u0, *_rest) in zip(self.states, self._old, strict=True):
             for bc in st.bcs:
-                bc.set(st.body.u.x.array)
-            leapfrog.prescribed_velocity(st.body.u.x.array, u0, st.v, st.fixed_dofs, dt)
+                bc.set(st.u_arr)
+            leapfrog.prescribed_velocity(st.u_arr, u0, st.v, st.fixed_dofs, dt)
         self._assemble_forces(dt)
         self._account(dt, tool_old)
         for st in self.states:
@@ -247,7 +246,7 @@ class ExplicitSolver:
             # dofs the support does the work that changes their kinetic energy; the mass
             # damping's force alpha m v did work on the free ones
             body_int, body_ext, body_damp = leapfrog.works(
-                st.body.u.x.array, u0, st.f_int.x.array, f0, st.f_all.x.array, r0, st.fixed,
+                st.u_arr, u0, st.f_int_arr, f0, st.f_all_arr, r0, st.fixed,
                 st.m, st.v, v0, self._alpha[st.name], st.n_owned, d)
             du[st.name] = d
             w_int += body_int
@@ -263,7 +262,7 @@ class ExplicitSolver:
             tools -= float(force @ (tool.contact.tool_offset() - off0))
             self._impulse[tool.contact.name] += force * dt
         for key, st, w in self._reactions:
-            self._reaction_impulse[key] += dt * float(st.f_all.x.array[: st.n_owned] @ w)
+            self._reaction_impulse[key] += dt * float(st.f_all_arr[: st.n_owned] @ w)
         # what the tools put in, less what reached the nodes, went into friction (and the
         # contacts' penalty springs); -R . d over the free dofs is the kinetic energy gained
         # plus the mass damping's work (not in R): the damping goes to its ledger only
