@@ -12,6 +12,7 @@ import dataclasses
 import importlib.util
 import logging
 import math
+import os
 import sys
 import time
 import types
@@ -351,6 +352,17 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar="KEY=VALUE", help="set a case parameter (repeatable)")
     parser.add_argument("--quiet", action="store_true",
                         help="warnings and errors only, no progress line")
+    parser.add_argument("--no-pictures", action="store_true",
+                        help="leave out the case's 3D views and sections (about a second "
+                             "each; the plots are drawn): as FORMING_PICTURES=0")
+
+
+def apply_picture_choice(args: argparse.Namespace) -> None:
+    """``--no-pictures`` given: the runs of this process draw no pictures (every rank)."""
+    from forming.output import PICTURES_ENV
+
+    if getattr(args, "no_pictures", False):
+        os.environ[PICTURES_ENV] = "0"
 
 
 def add_restart_arguments(parser: argparse.ArgumentParser) -> None:
@@ -379,6 +391,7 @@ def execute(name: str, args: argparse.Namespace, extra: list[str], build=None,
     from forming.log import setup
 
     setup(quiet=getattr(args, "quiet", False))
+    apply_picture_choice(args)
     comm = MPI.COMM_WORLD
     restart = getattr(args, "restart", None)
     out = restart or args.out or Path("results") / name

@@ -83,11 +83,12 @@ def _case_help(command: str, name: str) -> int:
 def _compare(args: argparse.Namespace, extra: list[str]) -> int:
     from mpi4py import MPI
 
-    from forming.case import apply_petsc_args, guarded
+    from forming.case import apply_petsc_args, apply_picture_choice, guarded
     from forming.compare import compare
     from forming.log import setup
 
     setup(quiet=args.quiet)
+    apply_picture_choice(args)
     comm = MPI.COMM_WORLD
     out = args.out or Path("results") / f"{args.case}_compare"
     def run() -> dict:

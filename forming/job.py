@@ -59,7 +59,8 @@ class Job:
         plots: PNG plots from the history, ``plots(recorder, out) -> paths`` (called on
             rank 0).
         pictures: PNG pictures of the final state, ``pictures(model, out) -> paths``
-            (collective: gathers on rank 0).
+            (collective: gathers on rank 0); PNGs only, left out with
+            ``FORMING_PICTURES=0`` (``--no-pictures``), so no data file may come from it.
         field_every: Write ParaView fields every this many converged steps (and last).
         checkpoint_every: Write a checkpoint (``checkpoint.npz``, for ``--restart``)
             every this many converged steps; 0: none (a stop request still writes one).

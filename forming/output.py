@@ -22,6 +22,26 @@ from mpi4py import MPI
 from forming import compat
 from forming.errors import InputError
 
+PICTURES_ENV = "FORMING_PICTURES"
+
+
+def pictures_wanted() -> bool:
+    """Whether a run draws its case's pictures: ``FORMING_PICTURES`` 1 (the default) or 0.
+
+    The 3D views and sections a case draws when a run ends take about a second each (an
+    off-screen render); a batch of runs, or the test suite, may leave them out
+    (``--no-pictures``). The plots of the history are drawn either way.
+
+    Raises:
+        InputError: Another value.
+    """
+    value = os.environ.get(PICTURES_ENV, "1").strip().lower()
+    if value in ("1", "true", "yes", "on"):
+        return True
+    if value in ("0", "false", "no", "off"):
+        return False
+    raise InputError(PICTURES_ENV, f"must be 1 or 0, got {value!r}")
+
 
 @contextlib.contextmanager
 def _replacing(path: Path):

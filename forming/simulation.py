@@ -37,7 +37,7 @@ from forming.history import STROKE, force_column, merge, reaction_column, whole_
 from forming.job import Job
 from forming.log import Progress, collective_warning
 from forming.model import Model
-from forming.output import FieldOutput, Recorder, write_final_shape
+from forming.output import FieldOutput, Recorder, pictures_wanted, write_final_shape
 from forming.parallel import peak_rss_mb
 from forming.solver import make_solver, penalty_only
 from forming.solver.base import StepResult
@@ -94,6 +94,7 @@ class Simulation:
                  restart: bool = False):
         self._t_start = time.perf_counter()
         self.job = job
+        self._pictures = pictures_wanted()  # FORMING_PICTURES, read (and checked) first
         self.case = case
         self.parameters = dict(parameters or {})
         self.comm = job.scene.mesh.mesh.comm
@@ -470,7 +471,8 @@ class Simulation:
         if self.signal is not None:
             summary["signal"] = self.signal
         write_final_shape(rec.out / "final_shape.npz", model.bodies, comm)
-        summary["outputs"] += [p.name for p in self._hook("pictures", job.pictures, model,
+        pictures = job.pictures if self._pictures else None
+        summary["outputs"] += [p.name for p in self._hook("pictures", pictures, model,
                                                             rec.out) or []]
         if comm.rank == 0 and rec.rows:
             summary["outputs"] += [p.name for p in self._hook("plots", job.plots, rec,

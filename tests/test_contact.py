@@ -268,7 +268,7 @@ def _hardening_curve(path):
     return path
 
 
-def test_square_punch_crushing_runs_to_full_stroke(tmp_path):
+def test_square_punch_crushing_runs_to_full_stroke(tmp_path, pictures):
     """core_crushing (coarse 4 x 4 x 2 quarter, hardening plateau, friction 0.36): the
     10 mm stroke completes with the penetration under tolerance, and the paper's Fig. 12
     findings hold.

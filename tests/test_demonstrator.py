@@ -337,7 +337,7 @@ def test_one_report_measures_each_run_on_its_own_fields(monkeypatch):
 
 
 @pytest.mark.slow
-def test_demonstrator_closes_the_tools_and_reaches_the_cavity(tmp_path):
+def test_demonstrator_closes_the_tools_and_reaches_the_cavity(tmp_path, pictures):
     """The shipped part on the 60 mm mesh (the main job's), serial: the tools close, the
     skins stay out of them (penetration within the contact tolerance), the flange's core
     is crushed to the cavity's 7 mm within 10%, no skin shears past the wrinkling angles

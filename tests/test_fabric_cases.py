@@ -63,7 +63,7 @@ def test_picture_frame_reproduces_input_curve(tmp_path):
     assert (tmp_path / "shear_angle.bp").is_dir()
 
 
-def test_bias_extension_follows_pin_jointed_kinematics(tmp_path):
+def test_bias_extension_follows_pin_jointed_kinematics(tmp_path, pictures):
     """1:2 specimen pulled until the kinematic central angle is 45 deg (below locking):
     the computed central shear angle stays within 2 deg of
     gamma = pi/2 - 2 acos((D + d) / (sqrt(2) D)) at every step; the clamped triangles stay

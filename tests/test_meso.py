@@ -129,7 +129,7 @@ def _small_run(folder, *sets: str) -> tuple[dict, np.ndarray]:
     return s["metrics"], np.genfromtxt(folder / "history.csv", delimiter=",", names=True)
 
 
-def test_meso_compression_modulus_and_stabilised_buckling(tmp_path):
+def test_meso_compression_modulus_and_stabilised_buckling(tmp_path, pictures):
     """One cell's worth of walls (a 1 x 1 patch, 10 mm high) compressed to 5% nominal
     strain between bonded platens, serial:
 

@@ -99,3 +99,39 @@ def test_deformed_grid_draws_only_the_cells_kept():
     # every drawn point sits at 1.1 times its reference height: z' = z + 0.1 z
     heights = np.unique(np.round(grid.points[:, 2], 9))
     np.testing.assert_allclose(heights, [0.0, 5.5, 11.0], atol=1e-9)
+
+
+def test_a_run_without_pictures_keeps_its_plots_and_data(tmp_path, monkeypatch):
+    """``FORMING_PICTURES=0`` (``--no-pictures``) leaves out a case's 3D view and section
+    and nothing else: the run's summary, history, fields and force plot are written, and
+    its answer is the run's with pictures (the pictures are drawn after the metrics). A
+    value other than 1 or 0 is refused before the run starts, naming the variable. A
+    failure means the switch drops data with the pictures, or a typo silently skips them.
+    """
+    import argparse
+    import json
+    import os
+
+    from forming.case import apply_picture_choice, run_case
+    from forming.errors import InputError
+
+    sets = ["cells=2,2,2", "stroke=0.1"]
+    monkeypatch.setenv("FORMING_PICTURES", "1")
+    drawn = run_case("core_crushing", tmp_path / "drawn", sets)
+    monkeypatch.setenv("FORMING_PICTURES", "0")
+    plain = run_case("core_crushing", tmp_path / "plain", sets)
+    assert {"section_plastic_strain.png", "plastic_strain_3d.png"} <= set(drawn["outputs"])
+    assert set(drawn["outputs"]) - set(plain["outputs"]) == {
+        "section_plastic_strain.png", "plastic_strain_3d.png"}
+    for name in plain["outputs"]:
+        assert (tmp_path / "plain" / name).exists(), name
+    assert not (tmp_path / "plain" / "plastic_strain_3d.png").exists()
+    assert json.loads((tmp_path / "plain" / "summary.json").read_text())["metrics"] \
+        == plain["metrics"] == drawn["metrics"]
+    monkeypatch.setenv("FORMING_PICTURES", "maybe")
+    with pytest.raises(InputError, match="FORMING_PICTURES"):
+        run_case("core_crushing", tmp_path / "typo", sets)
+    assert not (tmp_path / "typo" / "summary.json").exists()
+    monkeypatch.setenv("FORMING_PICTURES", "1")
+    apply_picture_choice(argparse.Namespace(no_pictures=True))
+    assert os.environ["FORMING_PICTURES"] == "0"

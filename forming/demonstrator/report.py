@@ -134,12 +134,24 @@ class Report:
                    "analysis": self._analyse(g) if g is not None else None}
         return st["analysis"]
 
+    def _write_forming_map(self, out: Path, a: dict) -> None:
+        """``forming_map.npz``: the core's mid-surface and blank edge, before and after."""
+        top, bottom = a["fields"]["core"][0], a["fields"]["core_bottom"]
+        edge = a["fields"]["edge"][0]
+        # the forming map of the core's mid-surface: a sheared blank edge (skin-core slip
+        # tilts it) then straddles the trim line instead of leaving it on one side
+        np.savez(out / FORMING_MAP, reference=top.reference, current=top.midway(bottom),
+                 edge_reference=edge.reference, edge_current=edge.polygons,
+                 trim=self.part.trim, blank=self.part.blank)
+
     # -- the case's hooks -----------------------------------------------------------------
     def metrics(self, rec, model) -> dict:
         """Shear, wrinkling, conformity, crushing, draw-in and force figures (collective)."""
         t = float(rec.column("t")[-1])
         self._state["t"] = t
         a = self._measure(model, t)
+        if a is not None:  # rank 0: the map the blank optimisation reads (pictures or not)
+            self._write_forming_map(Path(rec.out), a)
         mine = a["metrics"] if a is not None else None
         mine = model.comm.bcast(mine, root=0)
         force = rec.column("force_upper_z_N")
@@ -164,13 +176,6 @@ class Report:
         if model.comm.rank != 0:
             return []
         out = Path(out)
-        top, bottom = a["fields"]["core"][0], a["fields"]["core_bottom"]
-        edge = a["fields"]["edge"][0]
-        # the forming map of the core's mid-surface: a sheared blank edge (skin-core slip
-        # tilts it) then straddles the trim line instead of leaving it on one side
-        np.savez(out / FORMING_MAP, reference=top.reference, current=top.midway(bottom),
-                 edge_reference=edge.reference, edge_current=edge.polygons,
-                 trim=self.part.trim, blank=self.part.blank)
         return [maps.shear_map(out, a, self.limits, self.part),
                 maps.fibre_map(out, a, FIBRE_COMPRESSION, self.part),
                 maps.conformity_map(out, a, self.bridging_gap, self.part),
