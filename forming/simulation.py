@@ -471,9 +471,10 @@ class Simulation:
         if self.signal is not None:
             summary["signal"] = self.signal
         write_final_shape(rec.out / "final_shape.npz", model.bodies, comm)
-        pictures = job.pictures if self._pictures else None
+        pictures, t0 = job.pictures if self._pictures else None, time.perf_counter()
         summary["outputs"] += [p.name for p in self._hook("pictures", pictures, model,
                                                             rec.out) or []]
+        summary["timing"]["pictures_s"] = time.perf_counter() - t0  # (rank 0 draws them)
         if comm.rank == 0 and rec.rows:
             summary["outputs"] += [p.name for p in self._hook("plots", job.plots, rec,
                                                                 rec.out) or []]

@@ -126,6 +126,7 @@ def test_a_run_without_pictures_keeps_its_plots_and_data(tmp_path, monkeypatch):
     for name in plain["outputs"]:
         assert (tmp_path / "plain" / name).exists(), name
     assert not (tmp_path / "plain" / "plastic_strain_3d.png").exists()
+    assert drawn["timing"]["pictures_s"] > 0.0 and plain["timing"]["pictures_s"] >= 0.0
     assert json.loads((tmp_path / "plain" / "summary.json").read_text())["metrics"] \
         == plain["metrics"] == drawn["metrics"]
     monkeypatch.setenv("FORMING_PICTURES", "maybe")
