@@ -233,3 +233,37 @@ def jacobian_all(on, xs, xm, facets, index, s_index, facet, xi, hist, hist_xi, t
                         values[base + c] += t[j] * dW[q, a, c]
                     for c in range(12):  # and with the facet's nodes
                         values[base + 27 + c] = t[j] * dW[q, a, 3 + c]
+
+
+@numba.njit(cache=True)
+def damped_trial(on, facets, facet, xi, node_normal, v_master, v_slave, nodes, gap,
+                 coefficient, out):
+    """Subtract ``c dg/dt`` from ``out`` (the normal multipliers) at the pairs ``on``.
+
+    ``dg/dt = (v_s - v_m) . n``, with the master's velocity ``v_master`` (n, 3) and the
+    smoothed normal interpolated at the paired point, at the pairs that penetrated at the
+    last evaluation (``gap < 0``): an approaching node is not pushed before it touches.
+    ``v_slave`` is the slave body's velocity (n, 3), row ``nodes[i]`` for pair ``i``.
+    """
+    for k in range(on.size):
+        i = on[k]
+        if not gap[i] < 0.0:
+            continue
+        x, e = xi[i, 0], xi[i, 1]
+        w = (0.25 * (1 - x) * (1 - e), 0.25 * (1 + x) * (1 - e),
+             0.25 * (1 + x) * (1 + e), 0.25 * (1 - x) * (1 + e))
+        n0 = n1 = n2 = m0 = m1 = m2 = 0.0
+        for a in range(4):
+            node = facets[facet[i], a]
+            n0 += w[a] * node_normal[node, 0]
+            n1 += w[a] * node_normal[node, 1]
+            n2 += w[a] * node_normal[node, 2]
+            m0 += w[a] * v_master[node, 0]
+            m1 += w[a] * v_master[node, 1]
+            m2 += w[a] * v_master[node, 2]
+        size = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        s = nodes[i]
+        rate = ((v_slave[s, 0] - m0) * (n0 / size) + (v_slave[s, 1] - m1) * (n1 / size)
+                + (v_slave[s, 2] - m2) * (n2 / size))
+        out[i] -= coefficient[i] * rate
+

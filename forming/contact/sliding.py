@@ -48,6 +48,7 @@ from petsc4py import PETSc
 
 from forming.contact.nodal import critical_damping
 from forming.contact.slidebatch import (
+    damped_trial,
     distinct_facets,
     jacobian_all,
     jacobian_blocks,
@@ -285,19 +286,11 @@ class SlidingTerm:
         the paired point (as the kernel interpolates them), at the pairs that penetrated
         at the last evaluation (an approaching node is not pushed before it touches).
         """
-        facets = self.master.facets[self.facet[on]]
-        x, e = self.xi[on, 0], self.xi[on, 1]
-        N = 0.25 * np.stack([(1 - x) * (1 - e), (1 + x) * (1 - e), (1 + x) * (1 + e),
-                             (1 - x) * (1 + e)], axis=1)
-        normal = np.einsum("ka,kaj->kj", N, self.node_normal[facets])
-        normal /= np.linalg.norm(normal, axis=1)[:, None]
-        v_master = np.einsum("ka,kaj->kj", N,
-                             self.master.gather(damping.master_velocity)[facets])
-        v_slave = damping.slave_velocity.reshape(-1, 3)[self.nodes[on]]
         out = self.lam_n.copy()
-        rate = np.sum((v_slave - v_master) * normal, axis=1)
-        touching = self.gap[on] < 0.0  # at the last evaluation: no pressure before contact
-        out[on] -= damping.coefficient[on] * rate * touching
+        damped_trial(on, self.master.facets, self.facet, self.xi, self.node_normal,
+                     self.master.gather(damping.master_velocity),
+                     damping.slave_velocity.reshape(-1, 3), self.nodes, self.gap,
+                     damping.coefficient, out)
         return out
 
     def damping(self, zeta: float, slave_mass: np.ndarray, slave_velocity: np.ndarray,
