@@ -16,6 +16,17 @@ REPO = Path(__file__).resolve().parent.parent
 PERFORMANCE_MD = REPO / "docs" / "performance.md"
 
 
+def revision(repo: Path = REPO) -> str:
+    """The short commit of a checkout, ``+`` when its tracked files have changes ("?"
+    outside git)."""
+    def git(*args: str) -> str:
+        return subprocess.run(["git", *args], cwd=repo, capture_output=True, text=True,
+                              check=False).stdout.strip()
+
+    return (git("rev-parse", "--short", "HEAD") or "?") + (
+        "+" if git("status", "--porcelain", "--untracked-files=no") else "")
+
+
 @dataclass(frozen=True)
 class Run:
     """One run of a benchmark's study: its label, folder name and ``--set`` settings."""

@@ -21,12 +21,11 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import subprocess
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from _report import REPO, machine, run_case_process, update_section
+from _report import REPO, machine, revision, run_case_process, update_section
 
 # (label, case, settings, the answer compared): small explicit scenes, as the suite runs them
 SCENES = (
@@ -47,15 +46,6 @@ def _per_increment(summary: dict, out: Path, answer: str) -> tuple[float, float 
     steps = summary["timing"]["time_steps"]
     return (1e6 * float(np.sum(hist["step_wall_s"])) / steps,
             summary["metrics"].get(answer), steps)
-
-
-def _revision(repo: Path) -> str:
-    """The checkout's short revision, with ``+`` when its tree differs from it."""
-    def git(*args: str) -> str:
-        return subprocess.run(["git", *args], cwd=repo, text=True, capture_output=True,
-                              check=False).stdout.strip()
-    dirty = git("status", "--porcelain", "--untracked-files=no", "--", "forming", "cases")
-    return (git("rev-parse", "--short", "HEAD") or "?") + ("+" if dirty else "")
 
 
 def main() -> None:
@@ -86,8 +76,8 @@ def main() -> None:
     lines = [
         "## Explicit solver: the fixed cost of an increment on small models (issue 16)", "",
         f"`python benchmarks/explicit_overhead.py --before <checkout> --repeats "
-        f"{args.repeats}` on {machine()}: before {_revision(args.before)}, now "
-        f"{_revision(REPO)}, the two alternated; the median over the repeats of the "
+        f"{args.repeats}` on {machine()}: before {revision(args.before)}, now "
+        f"{revision(REPO)}, the two alternated; the median over the repeats of the "
         "integration's wall time per increment. Serial, explicit, the case's defaults "
         "otherwise.", "",
         "| scene | increments | before [us / increment] | now [us / increment] "

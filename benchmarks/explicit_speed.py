@@ -21,12 +21,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from _report import REPO, machine, run_case_process, update_section
+from _report import REPO, machine, revision, run_case_process, update_section
 
 # (label, case, settings, solid: whether integration applies, 2 ranks too)
 SCENES = (
@@ -55,11 +54,6 @@ def _speed(summary: dict, out: Path, elements: int | None) -> dict:
             "imbalance": t.get("element_loops_imbalance"),
             "force_N": summary["metrics"].get("punch_force_max_N",
                                               summary["metrics"].get("force_max_N"))}
-
-
-def _revision(repo: Path) -> str:
-    return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=repo, text=True,
-                          capture_output=True, check=False).stdout.strip() or "?"
 
 
 def main() -> None:
@@ -94,7 +88,7 @@ def main() -> None:
                     s = run_case_process(case, out, ranks, allow_failure=True,
                                          sets=("solver=explicit", *sets, *extra))
                     row = {"scene": label, "variant": name, "ranks": ranks,
-                           "revision": _revision(REPO), **_speed(s, out, None)}
+                           "revision": revision(REPO), **_speed(s, out, None)}
                     elements = row["elements"]
                     rows.append(row)
                     print(row, flush=True)
@@ -103,7 +97,7 @@ def main() -> None:
                     s = run_case_process(case, out, ranks, allow_failure=True,
                                          sets=("solver=explicit", *sets), repo=args.before)
                     row = {"scene": label, "variant": "before (forms, full)", "ranks": ranks,
-                           "revision": _revision(args.before), **_speed(s, out, elements)}
+                           "revision": revision(args.before), **_speed(s, out, elements)}
                     rows.append(row)
                     print(row, flush=True)
     if args.json:

@@ -22,11 +22,10 @@ minutes on 2 cores).
 from __future__ import annotations
 
 import argparse
-import subprocess
 import tempfile
 from pathlib import Path
 
-from _report import REPO, machine, run_case_process, update_section
+from _report import REPO, machine, revision, run_case_process, update_section
 
 SCENES = (
     ("crushable-foam core, 8 x 8 x 6", "core_compression",
@@ -34,11 +33,6 @@ SCENES = (
     ("hemisphere with holder, 12 x 12 x 3", "hemisphere",
      ("blank_holder=true", "cells=12,12,3")),
 )
-
-
-def _revision(repo: Path) -> str:
-    return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=repo, text=True,
-                          capture_output=True, check=False).stdout.strip() or "?"
 
 
 def _answer(summary: dict) -> str:
@@ -79,7 +73,7 @@ def main() -> None:
                                                    f"explicit.integration={kind}"))
                         t = s["timing"]
                         rows.append({"scene": label, "integration": kind, "tree": name,
-                                     "revision": _revision(tree), "status": s["status"],
+                                     "revision": revision(tree), "status": s["status"],
                                      "increments": t.get("time_steps", t.get("work")),
                                      "us": t.get("us_per_element_increment",
                                                  float("nan")),

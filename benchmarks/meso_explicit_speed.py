@@ -19,11 +19,10 @@ from __future__ import annotations
 
 import argparse
 import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
-from _report import REPO, machine, run_case_process, update_section
+from _report import REPO, machine, revision, run_case_process, update_section
 
 PERFORMANCE_MD = REPO / "docs" / "performance.md"
 OUT = REPO / "results" / "meso_explicit_speed"
@@ -36,16 +35,6 @@ def sets(cells: str, strain: float) -> tuple[str, ...]:
     return (f"cells={cells}", "height=10", "layers=4", f"strain={strain:g}",
             "solver=explicit", "stabilisation=0", "explicit.target_time_step=2e-7",
             f"explicit.loading_time={strain / RATE:g}")
-
-
-def revision(repo: Path) -> str:
-    """The short commit of a checkout (``+`` when it has uncommitted changes)."""
-    def git(*args: str) -> str:
-        return subprocess.run(["git", *args], cwd=repo, capture_output=True, text=True,
-                              check=True).stdout.strip()
-
-    return git("rev-parse", "--short", "HEAD") + ("+" if git("status", "--porcelain",
-                                                             "--untracked-files=no") else "")
 
 
 def stress(folder: Path) -> np.ndarray:

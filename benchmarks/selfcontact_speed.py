@@ -31,8 +31,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _report import REPO, machine, read_summary, update_section
-from meso_explicit_speed import revision
+from _report import REPO, machine, read_summary, revision, update_section
 
 PERFORMANCE_MD = REPO / "docs" / "performance.md"
 OUT = REPO / "results" / "selfcontact_speed"

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from forming.contact.slidekernels import pair_jacobian, pair_residual, shape
+from forming.contact.slidekernels import pair_jacobian, pair_residual, shape, shape_tuple
 from forming.contact.slidesurface import ring_step
 from forming.contact.tributary import spread
 
@@ -249,9 +249,7 @@ def damped_trial(on, facets, facet, xi, node_normal, v_master, v_slave, nodes, g
         i = on[k]
         if not gap[i] < 0.0:
             continue
-        x, e = xi[i, 0], xi[i, 1]
-        w = (0.25 * (1 - x) * (1 - e), 0.25 * (1 + x) * (1 - e),
-             0.25 * (1 + x) * (1 + e), 0.25 * (1 - x) * (1 + e))
+        w = shape_tuple(xi[i, 0], xi[i, 1])
         n0 = n1 = n2 = m0 = m1 = m2 = 0.0
         for a in range(4):
             node = facets[facet[i], a]
